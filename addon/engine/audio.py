@@ -1,0 +1,105 @@
+"""Audio in: any file Praat can read (WAV, FLAC, MP3, AIFF, ...) or samples
+handed over by a host program (Blender decodes its own sound strips), reduced
+to 16 kHz mono, the rate of the acoustic model."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import AudioError
+
+MODEL_RATE = 16000
+
+
+@dataclass
+class Audio:
+    samples: np.ndarray  # float32, mono, in [-1, 1]
+    rate: int
+
+    @property
+    def duration(self) -> float:
+        return len(self.samples) / self.rate
+
+    def pcm16(self, start: float = 0.0, end: float | None = None) -> bytes:
+        a = int(round(start * self.rate))
+        b = len(self.samples) if end is None else int(round(end * self.rate))
+        clip = np.clip(self.samples[a:b], -1.0, 1.0)
+        return (clip * 32767.0).astype("<i2").tobytes()
+
+
+def _fast_length(n: int) -> int:
+    """Smallest 2^a 3^b 5^c >= n, a length the FFT handles quickly."""
+    best = 1 << (n - 1).bit_length()
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            p = p35
+            while p < n:
+                p *= 2
+            best = min(best, p)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
+def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.ndarray:
+    """Band-limited resampling by FFT (the spectrum is cut at the new Nyquist
+    frequency).  Zero padding to a fast length avoids slow prime-length FFTs
+    and wrap-around at the ends."""
+    samples = np.asarray(samples, dtype=np.float64)
+    if int(round(rate)) == target:
+        return samples.astype(np.float32)
+    n = len(samples)
+    if n == 0:
+        return np.zeros(0, np.float32)
+    n_out = int(round(n * target / rate))
+    pad = _fast_length(n + int(rate // 10))
+    pad_out = int(round(pad * target / rate))
+    spec = np.fft.rfft(samples, pad)
+    keep = pad_out // 2 + 1
+    if keep <= len(spec):
+        spec = spec[:keep]
+    else:
+        spec = np.concatenate([spec, np.zeros(keep - len(spec), spec.dtype)])
+    out = np.fft.irfft(spec, pad_out) * (pad_out / pad)
+    return out[:n_out].astype(np.float32)
+
+
+def from_samples(samples: np.ndarray, rate: float) -> Audio:
+    """Audio from an array shaped (n,) or (n, channels), any rate."""
+    arr = np.asarray(samples, dtype=np.float32)
+    if arr.ndim == 2:
+        # Channels last (Blender's aud) or first (Praat): the longer axis is time.
+        arr = arr.mean(axis=1 if arr.shape[0] >= arr.shape[1] else 0)
+    if arr.size == 0:
+        raise AudioError("the audio is empty (no samples)")
+    if not np.all(np.isfinite(arr)):
+        raise AudioError("the audio holds invalid samples (NaN or infinity)")
+    return Audio(resample(arr, rate), MODEL_RATE)
+
+
+def load(path: str | os.PathLike) -> Audio:
+    """Read an audio file and convert it to 16 kHz mono.
+
+    Raises :class:`AudioError` if it is missing, unreadable or empty.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise AudioError(f"audio file not found: {path}")
+    if os.path.isdir(path):
+        raise AudioError(f"audio path is a folder, not a file: {path}")
+    if os.path.getsize(path) == 0:
+        raise AudioError(f"audio file is empty (0 bytes): {path}")
+    import parselmouth
+
+    try:
+        sound = parselmouth.Sound(path)
+    except Exception as exc:  # Praat says why in its own words
+        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise AudioError(f"cannot read audio file {path}: {reason}. "
+                         "Use WAV, FLAC, MP3 or AIFF.") from None
+    return from_samples(sound.values, sound.sampling_frequency)

@@ -1,0 +1,218 @@
+"""The whole job: audio + transcript -> aligned phonemes -> viseme curves.
+
+:func:`analyze` is the one call the command line, the Blender add-on and
+other programs make.  Each step is also callable on its own.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Callable
+
+import numpy as np
+
+from . import audio as audio_mod
+from . import coarticulation, presets, prosody, visemes, weights
+from .align import AlignSettings, Alignment, align, check_transcript_matches
+from .audio import Audio
+from .errors import LipSyncError
+from .importers import read_alignment
+from .phonemes import CLASSES, phone_class
+from .pronounce import Lexicon
+from .text import normalize
+
+MODELS = ("dominance", "rules")
+SCHEMA_VERSION = 1
+
+#: Broadcast rates written with two decimals mean the NTSC ratios.
+_NTSC = {23.976: Fraction(24000, 1001), 29.97: Fraction(30000, 1001), 59.94: Fraction(60000, 1001),
+         47.952: Fraction(48000, 1001), 119.88: Fraction(120000, 1001)}
+
+
+def parse_fps(value) -> float:
+    """``"29.97"`` -> 30000/1001; ``"24000/1001"`` and plain numbers work too."""
+    try:
+        if isinstance(value, str) and "/" in value:
+            a, b = value.split("/")
+            fps = float(Fraction(int(a), int(b)))
+        else:
+            fps = float(value)
+            for k, v in _NTSC.items():
+                if abs(fps - k) < 0.006:
+                    fps = float(v)
+    except (ValueError, ZeroDivisionError):
+        raise LipSyncError(f"frame rate {value!r} is not a number") from None
+    if not (1.0 <= fps <= 1000.0):
+        raise LipSyncError(f"frame rate {value!r} is out of range (1-1000 fps)")
+    return fps
+
+
+def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
+                settings: AlignSettings | None = None,
+                progress: Callable[[float], None] | None = None) -> Alignment:
+    """Normalise ``text``, pronounce every word and align it to ``snd``."""
+    lexicon = lexicon or Lexicon()
+    words = normalize(text)
+    prons = [lexicon.pronounce(w) for w in words]
+    al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
+               [w.text for w in words], [p.source for p in prons], settings, progress)
+    check_transcript_matches(al)
+    return al
+
+
+def align_file(path: str | os.PathLike, text: str, **kw) -> Alignment:
+    return align_audio(audio_mod.load(path), text, **kw)
+
+
+@dataclass
+class Result:
+    """Everything :func:`analyze` found, and the curves."""
+
+    duration: float
+    fps: float
+    viseme_set: visemes.VisemeSet
+    emotion: str
+    model: str
+    alignment: Alignment
+    pitch: np.ndarray          # per phoneme, Hz (NaN: no pitch)
+    intensity: np.ndarray      # per phoneme, dB
+    weights: np.ndarray        # per phoneme
+    times: np.ndarray          # per frame, s
+    curves: np.ndarray         # (frames, visemes) in [0, 1]
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        al = self.alignment
+        return {
+            "schema": SCHEMA_VERSION,
+            "duration": round(self.duration, 6),
+            "fps": self.fps,
+            "viseme_set": self.viseme_set.name,
+            "emotion": self.emotion,
+            "coarticulation": self.model,
+            "visemes": list(self.viseme_set.visemes),
+            "words": [{"word": w.text, "start": round(w.start, 4), "end": round(w.end, 4),
+                       "estimated": bool(w.estimated), "pronunciation": w.source or None}
+                      for w in al.words],
+            "phonemes": [{"phone": p.phone, "start": round(p.start, 4), "end": round(p.end, 4),
+                          "word_index": p.word_index,
+                          "pitch_hz": None if not np.isfinite(f) else round(float(f), 2),
+                          "intensity_db": round(float(i), 2), "weight": round(float(w), 4),
+                          "estimated": bool(p.estimated)}
+                         for p, f, i, w in zip(al.phones, self.pitch, self.intensity, self.weights)],
+            "frames": {"time": [round(float(t), 6) for t in self.times],
+                       "weights": np.round(self.curves, 4).tolist()},
+            "notes": self.notes,
+        }
+
+    def write_json(self, path: str | os.PathLike) -> None:
+        with open(path, "w", encoding="utf-8") as fh:
+            json.dump(self.to_dict(), fh, separators=(",", ":"))
+
+    def write_csv(self, path: str | os.PathLike) -> None:
+        """The frame table: frame, time, then one column per viseme."""
+        with open(path, "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(["frame", "time"] + list(self.viseme_set.visemes))
+            for k, (t, row) in enumerate(zip(self.times, self.curves)):
+                w.writerow([k, f"{t:.6f}"] + [f"{x:.4f}" for x in row])
+
+
+def frame_times(duration: float, fps: float) -> np.ndarray:
+    return np.arange(int(np.floor(duration * fps + 1e-9)) + 1) / fps
+
+
+def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: dict) -> np.ndarray:
+    """(W_min, W_p, W_max) of each phoneme's (first) viseme, scaled by the preset."""
+    scale = preset["weights"]["range_scale"]
+    out = np.zeros((len(phones), 3))
+    for k, p in enumerate(phones):
+        vs = vset.of(p)
+        base = vset.ranges[vset.index(vs[0])] if vs else np.zeros(3)
+        out[k] = np.clip(base * np.asarray(scale[phone_class(p)]), 0.0, 1.0)
+    return out
+
+
+def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
+           vset: visemes.VisemeSet, preset: dict, model: str, fps: float
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weights per phoneme, frame times and viseme curves."""
+    if model not in MODELS:
+        raise LipSyncError(f"unknown coarticulation model {model!r}: use {' or '.join(MODELS)}")
+    phones = [p.phone for p in alignment.phones]
+    ranges = phone_ranges(phones, vset, preset)
+    w = weights.phoneme_weights(phones, pitch, intensity, stats, ranges, preset["weights"]["other_source"])
+    times = frame_times(alignment.duration, fps)
+    spans = [(p.phone, p.start, p.end) for p in alignment.phones]
+    split = preset["rules"]["diphthong_split"]
+    n_v = len(vset.visemes)
+    if model == "rules":
+        de = preset["rules"]["deletion"]
+        kept, kw = coarticulation.delete_short(spans, w, de["phones"], de["threshold"])
+        events = coarticulation.build_events(kept, kw, vset, split)
+        out = coarticulation.rules(events, times, n_v, preset)
+    else:
+        events = coarticulation.build_events(spans, w, vset, split)
+        rest = vset.rest
+        rest_i = vset.index(rest) if rest else None
+        rest_w = float(vset.ranges[rest_i][1] * preset["weights"]["range_scale"]["silence"][1]) if rest else 0.0
+        out = coarticulation.dominance(events, times, n_v, preset, alignment.duration, rest_i, rest_w)
+    out = coarticulation.smooth(out, fps, preset["smoothing"])
+    out = coarticulation.enforce_closures(out, times, events, preset["closure"]["strength"])
+    out = np.clip(out * preset["gain"], 0.0, 1.0)
+    return w, times, out
+
+
+def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
+            alignment: Alignment | str | os.PathLike | None = None,
+            viseme_set: str = "default", emotion: str | dict = "neutral",
+            coarticulation_model: str = "dominance", fps=30, dictionary: str | None = None,
+            settings: AlignSettings | None = None,
+            progress: Callable[[str, float], None] | None = None) -> Result:
+    """Audio + transcript (or an imported alignment) -> viseme curves.
+
+    ``emotion`` is a built-in preset name, a preset file path or a preset
+    dict; ``viseme_set`` a built-in set name or a file path.  ``progress``
+    is called with (step, fraction done).
+    """
+    def report(step, frac):
+        if progress:
+            progress(step, frac)
+
+    fps = parse_fps(fps)
+    vset = visemes.load(viseme_set)
+    preset = presets.resolve(dict(emotion), "preset") if isinstance(emotion, dict) else presets.load(emotion)
+    if coarticulation_model not in MODELS:
+        raise LipSyncError(f"unknown coarticulation model {coarticulation_model!r}: use {' or '.join(MODELS)}")
+    report("decode", 0.0)
+    snd = audio if isinstance(audio, Audio) else audio_mod.load(audio)
+    if alignment is None:
+        if text is None:
+            raise LipSyncError("give a transcript, or an alignment file to import")
+        report("align", 0.1)
+        al = align_audio(snd, text, Lexicon.with_user_file(dictionary),
+                         settings, lambda f: report("align", 0.1 + 0.7 * f))
+    else:
+        al = alignment if isinstance(alignment, Alignment) else read_alignment(alignment)
+    al.duration = max(snd.duration, al.duration if alignment is not None else 0.0)
+    report("prosody", 0.8)
+    tracks = prosody.analyse(snd)
+    wp = preset["weights"]
+    pr = tuple(wp["pitch_range"]) if isinstance(wp["pitch_range"], list) else wp["pitch_range"]
+    stats = prosody.clip_stats(tracks, wp["intensity_floor_db"], pr)
+    pitch, inten = prosody.phoneme_means(tracks, [(p.start, p.end) for p in al.phones], stats)
+    report("curves", 0.9)
+    w, times, out = curves(al, pitch, inten, stats, vset, preset, coarticulation_model, fps)
+    report("done", 1.0)
+    notes = list(al.notes)
+    if not stats.voiced:
+        notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
+    return Result(al.duration, fps, vset, preset.get("name", str(emotion)), coarticulation_model, al,
+                  pitch, inten, w, times, out, notes)
+
+
+__all__ = ["analyze", "align_audio", "align_file", "curves", "parse_fps", "Result", "CLASSES"]

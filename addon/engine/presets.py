@@ -1,0 +1,228 @@
+"""Emotion presets: every tunable number of weights and coarticulation.
+
+A preset is a JSON file.  Built-in presets live in ``data/presets``;
+``neutral`` holds every field and the others, like a user's preset, may hold
+only what differs: a preset names its ``base`` (default ``neutral``) and its
+fields replace the base's.  Loading checks every field and a malformed one
+raises :class:`PresetError` naming it (``rules.influence.VC must be a number
+between 0 and 3``).
+
+Fields (see ``data/presets/neutral.json`` for values):
+
+``weights.range_scale.<class>``  [s_min, s_p, s_max] multipliers on every
+    viseme's (W_min, W_p, W_max) for phonemes of that class: how wide the
+    mouth goes.  Classes: vowel, bilabial, labiodental, dental, alveolar,
+    postalveolar, velar, liquid, glide, silence.
+``weights.other_source``  what drives nasals, liquids and glides: "intensity",
+    "pitch", "both" or "neutral" (the paper leaves it open).
+``weights.pitch_range``  "auto" (from the clip), "male", "female" or [lo, hi] Hz.
+``weights.intensity_floor_db``  frames this far below the loudest are silence.
+``rules.t_onset``, ``rules.t_offset``  seconds a viseme starts before its
+    phoneme and lingers after it, before the influence factor.
+``rules.apex``  where in the phoneme the viseme peaks, 0 (start) to 1 (end).
+``rules.influence.{VV,VC,CV,CC}``  the factor c by context (previous->this).
+``rules.deletion.phones``, ``rules.deletion.threshold``  phonemes dropped
+    from the visual stream when shorter than the threshold (s).
+``rules.diphthong_split``  share of a diphthong's span given to its first viseme.
+``dominance.plateau``  share of a segment over which its dominance is flat
+    (0 = the classic Cohen-Massaro peak at the centre).
+``dominance.classes.<class>.{alpha,theta,phi,c}``  Cohen-Massaro parameters.
+``closure.strength``  how much bilabial and labiodental closures suppress the
+    other visemes (0-1); closures always reach their own target.
+``smoothing``  Gaussian smoothing of the curves, seconds (0 = none).
+``gain``  overall multiplier on every weight before clamping to [0, 1].
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from .errors import PresetError
+from .phonemes import CLASSES
+
+DATA = Path(__file__).parent / "data" / "presets"
+BUILTIN = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
+CONTEXTS = ("VV", "VC", "CV", "CC")
+
+
+def builtin_names() -> list[str]:
+    return [n for n in BUILTIN if (DATA / f"{n}.json").is_file()]
+
+
+def _num(source, field, value, lo, hi):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise PresetError(source, field, f"must be a number between {lo:g} and {hi:g}, got {value!r}")
+    if not (lo <= value <= hi):
+        raise PresetError(source, field, f"must be a number between {lo:g} and {hi:g}, got {value!r}")
+    return float(value)
+
+
+def validate(p: dict, source: str = "preset") -> dict:
+    """Check a complete preset; returns it with numbers as floats."""
+    def section(d, key, path):
+        if key not in d:
+            raise PresetError(source, path, "is missing")
+        if not isinstance(d[key], dict):
+            raise PresetError(source, path, "must be an object")
+        return d[key]
+
+    def no_extra(d, allowed, path):
+        for k in d:
+            if k not in allowed:
+                raise PresetError(source, f"{path}.{k}" if path else k,
+                                  f"is not a preset field (expected one of: {', '.join(allowed)})")
+
+    no_extra(p, ("name", "description", "base", "weights", "rules", "dominance", "closure", "smoothing", "gain"), "")
+    w = section(p, "weights", "weights")
+    no_extra(w, ("range_scale", "other_source", "pitch_range", "intensity_floor_db"), "weights")
+    rs = section(w, "range_scale", "weights.range_scale")
+    no_extra(rs, CLASSES, "weights.range_scale")
+    for cls in CLASSES:
+        f = f"weights.range_scale.{cls}"
+        v = rs.get(cls)
+        if not (isinstance(v, list) and len(v) == 3):
+            raise PresetError(source, f, "must be three numbers [s_min, s_p, s_max]")
+        rs[cls] = [_num(source, f"{f}[{k}]", x, 0.0, 3.0) for k, x in enumerate(v)]
+    if w.get("other_source") not in ("intensity", "pitch", "both", "neutral"):
+        raise PresetError(source, "weights.other_source",
+                          f"must be intensity, pitch, both or neutral, got {w.get('other_source')!r}")
+    pr = w.get("pitch_range")
+    if isinstance(pr, list):
+        if len(pr) != 2:
+            raise PresetError(source, "weights.pitch_range", "must be [low, high] in Hz")
+        lo = _num(source, "weights.pitch_range[0]", pr[0], 30, 1000)
+        hi = _num(source, "weights.pitch_range[1]", pr[1], 30, 1000)
+        if hi <= lo:
+            raise PresetError(source, "weights.pitch_range", "must have low < high")
+        w["pitch_range"] = [lo, hi]
+    elif pr not in ("auto", "male", "female"):
+        raise PresetError(source, "weights.pitch_range", f"must be auto, male, female or [low, high], got {pr!r}")
+    w["intensity_floor_db"] = _num(source, "weights.intensity_floor_db", w.get("intensity_floor_db"), 10, 120)
+
+    r = section(p, "rules", "rules")
+    no_extra(r, ("t_onset", "t_offset", "apex", "influence", "deletion", "diphthong_split"), "rules")
+    r["t_onset"] = _num(source, "rules.t_onset", r.get("t_onset"), 0.0, 1.0)
+    r["t_offset"] = _num(source, "rules.t_offset", r.get("t_offset"), 0.0, 1.0)
+    r["apex"] = _num(source, "rules.apex", r.get("apex"), 0.0, 1.0)
+    r["diphthong_split"] = _num(source, "rules.diphthong_split", r.get("diphthong_split"), 0.1, 0.9)
+    inf = section(r, "influence", "rules.influence")
+    no_extra(inf, CONTEXTS, "rules.influence")
+    for c in CONTEXTS:
+        inf[c] = _num(source, f"rules.influence.{c}", inf.get(c), 0.0, 3.0)
+    de = section(r, "deletion", "rules.deletion")
+    no_extra(de, ("phones", "threshold"), "rules.deletion")
+    from .phonemes import PHONEMES
+    if not isinstance(de.get("phones"), list) or any(ph not in PHONEMES for ph in de["phones"]):
+        raise PresetError(source, "rules.deletion.phones", f"must be a list of ARPAbet phonemes, got {de.get('phones')!r}")
+    de["threshold"] = _num(source, "rules.deletion.threshold", de.get("threshold"), 0.0, 0.5)
+
+    d = section(p, "dominance", "dominance")
+    no_extra(d, ("plateau", "classes"), "dominance")
+    d["plateau"] = _num(source, "dominance.plateau", d.get("plateau"), 0.0, 1.0)
+    cl = section(d, "classes", "dominance.classes")
+    no_extra(cl, CLASSES, "dominance.classes")
+    for cls in CLASSES:
+        e = section(cl, cls, f"dominance.classes.{cls}")
+        no_extra(e, ("alpha", "theta", "phi", "c"), f"dominance.classes.{cls}")
+        e["alpha"] = _num(source, f"dominance.classes.{cls}.alpha", e.get("alpha"), 1e-3, 1e3)
+        e["theta"] = _num(source, f"dominance.classes.{cls}.theta", e.get("theta"), 1e-2, 1e3)
+        e["phi"] = _num(source, f"dominance.classes.{cls}.phi", e.get("phi"), 1e-2, 1e3)
+        e["c"] = _num(source, f"dominance.classes.{cls}.c", e.get("c"), 0.2, 3.0)
+    cz = section(p, "closure", "closure")
+    no_extra(cz, ("strength",), "closure")
+    cz["strength"] = _num(source, "closure.strength", cz.get("strength"), 0.0, 1.0)
+    p["smoothing"] = _num(source, "smoothing", p.get("smoothing"), 0.0, 0.2)
+    p["gain"] = _num(source, "gain", p.get("gain"), 0.0, 3.0)
+    if not isinstance(p.get("name", ""), str):
+        raise PresetError(source, "name", "must be text")
+    return p
+
+
+def merge(base: dict, over: dict) -> dict:
+    """Fields of ``over`` replace those of ``base``, recursively for objects."""
+    out = copy.deepcopy(base)
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def _read(path: Path) -> dict:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise PresetError(str(path), "(file)", f"is not valid JSON: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except OSError as exc:
+        raise PresetError(str(path), "(file)", f"cannot be read: {exc.strerror}") from None
+    if not isinstance(doc, dict):
+        raise PresetError(str(path), "(top level)", "must be a JSON object")
+    return doc
+
+
+def resolve(doc: dict, source: str, _depth: int = 0) -> dict:
+    """Apply a preset's ``base`` chain and validate the result."""
+    if _depth > 8:
+        raise PresetError(source, "base", "chain is too long (a preset names itself as its base?)")
+    base_name = doc.get("base", "neutral" if doc.get("name") != "neutral" or "weights" not in doc else None)
+    if base_name is None or (doc.get("name") == "neutral" and source.endswith("neutral.json")):
+        full = copy.deepcopy(doc)
+    else:
+        if not isinstance(base_name, str):
+            raise PresetError(source, "base", "must be the name of another preset")
+        base = resolve(_read(_locate(base_name, source)), base_name, _depth + 1)
+        full = merge(base, {k: v for k, v in doc.items() if k != "base"})
+    full.pop("base", None)
+    return validate(full, source)
+
+
+def _locate(name_or_path: str | os.PathLike, source: str = "preset") -> Path:
+    path = Path(name_or_path)
+    if path.suffix == ".json" or path.exists():
+        if not path.is_file():
+            raise PresetError(str(path), "(file)", "does not exist")
+        return path
+    path = DATA / f"{name_or_path}.json"
+    if not path.is_file():
+        raise PresetError(str(name_or_path), "name",
+                          f"is not a preset; built-in presets: {', '.join(builtin_names())}")
+    return path
+
+
+def load(name_or_path: str | os.PathLike) -> dict:
+    """A built-in preset by name (``angry``) or a preset file by path."""
+    path = _locate(name_or_path)
+    return resolve(_read(path), str(path))
+
+
+def save(preset: dict, path: str | os.PathLike) -> None:
+    validate(copy.deepcopy(preset), str(path))
+    Path(path).write_text(json.dumps(preset, indent=1) + "\n", encoding="utf-8")
+
+
+def to_flat(preset: dict, prefix: str = "") -> dict[str, Any]:
+    """Preset as {"rules.influence.VC": 0.6, ...}: what a UI lists field by field."""
+    out: dict[str, Any] = {}
+    for k, v in preset.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(to_flat(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def from_flat(flat: dict[str, Any]) -> dict:
+    out: dict = {}
+    for key, v in flat.items():
+        cur = out
+        parts = key.split(".")
+        for p in parts[:-1]:
+            cur = cur.setdefault(p, {})
+        cur[parts[-1]] = v
+    return out

@@ -1,0 +1,221 @@
+"""Transcript normalisation: from a dialogue script to a list of spoken words.
+
+Scripts are written for actors, not for aligners.  This module turns one into
+the words that are actually heard:
+
+* numbers, ordinals (``3rd``), years (``1999``), currency (``$5.50``) and
+  percentages (``50%``) are spelled out; times (``10:30``) too;
+* common abbreviations are expanded (``Mr.``, ``Dr.``, ``St.``, ``etc.``);
+* curly quotes and apostrophes become straight ones, hyphenated words split;
+* stage directions in ``[brackets]``, ``(parentheses)`` or ``*asterisks*`` are
+  removed, since nobody says them;
+* punctuation that marks a pause (``, ; : . ! ? —``) is kept as a pause hint on
+  the word before it, which the aligner uses to split long audio;
+* a pronunciation can be forced inline by writing ARPAbet in braces straight
+  after a word, ``quokka{K W AA1 K AH0}``; a brace group on its own,
+  ``{HH M}``, is a sound with no word (a hum, a breath).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from . import numbers
+from .errors import TranscriptError
+
+#: Pause strength of each punctuation mark, from 0 (none) to 1 (sentence end).
+PAUSE_MARKS = {",": 0.4, ";": 0.6, ":": 0.6, "—": 0.6, "–": 0.5, "...": 0.8, "…": 0.8,
+               ".": 1.0, "!": 1.0, "?": 1.0}
+
+ABBREVIATIONS = {
+    "mr": "mister", "mrs": "missus", "ms": "miz", "dr": "doctor", "prof": "professor",
+    "sr": "senior", "jr": "junior", "st": "saint", "mt": "mount", "ave": "avenue",
+    "vs": "versus", "etc": "et cetera", "capt": "captain", "gen": "general",
+    "sgt": "sergeant", "lt": "lieutenant", "col": "colonel", "gov": "governor",
+    "no": "number", "approx": "approximately", "dept": "department",
+}
+# Abbreviations only expanded when written with their full stop.
+_NEEDS_DOT = {"no", "st", "gen", "col", "gov"}
+
+CURRENCY = {"$": ("dollar", "dollars", "cent", "cents"),
+            "£": ("pound", "pounds", "penny", "pence"),
+            "€": ("euro", "euros", "cent", "cents"),
+            "¥": ("yen", "yen", "sen", "sen")}
+
+SYMBOLS = {"&": "and", "+": "plus", "=": "equals", "@": "at", "%": "percent", "#": "number"}
+
+_QUOTES = str.maketrans({"\u2018": "'", "\u2019": "'", "\u02bc": "'", "\u201c": '"',
+                         "\u201d": '"', "\u00ab": '"', "\u00bb": '"', "\u2032": "'",
+                         "`": "'", "\u00a0": " "})
+
+_STAGE = re.compile(r"\[[^\]]*\]|\((?![^)]*\{)[^)]*\)|\*[^*\n]+\*|<[^>\n]*>")
+_ROMAN = re.compile(r"^(?=[MDCLXVI])M{0,3}(CM|CD|D?C{0,3})(XC|XL|L?X{0,3})(IX|IV|V?I{0,3})$")
+_TOKEN = re.compile(
+    r"""
+    (?P<forced>[A-Za-z'][\w'.-]*\{[^}]*\}|\{[^}]*\})          # word{PH ONES} or {PH ONES}
+  | (?P<money>[$£€¥]\s?\d[\d,]*(?:\.\d+)?(?:\s?(?:k|m|bn|million|billion|thousand))?)
+  | (?P<time>\d{1,2}:\d{2}(?:\s?[ap]\.?m\.?)?)
+  | (?P<ordinal>\d+(?:st|nd|rd|th)\b)
+  | (?P<percent>\d[\d,]*(?:\.\d+)?\s?%)
+  | (?P<number>\d[\d,]*(?:\.\d+)?)
+  | (?P<word>[A-Za-z\u00C0-\u024F](?:[A-Za-z\u00C0-\u024F']|\.(?=[A-Za-z]\.))*\.?|'[A-Za-z]+)
+  | (?P<pause>\.\.\.|…|[,;:.!?—–])
+  | (?P<symbol>[&+=@%#])
+    """,
+    re.VERBOSE,
+)
+
+
+@dataclass
+class Word:
+    """One spoken word of the transcript.
+
+    ``text`` is what the pronunciation is looked up by (lower case, spelled
+    out); ``source`` is the piece of the script it came from; ``phones`` is a
+    forced pronunciation (ARPAbet, may carry stress digits) or ``None``;
+    ``pause_after`` is the strength, 0 to 1, of the punctuation after it.
+    """
+
+    text: str
+    source: str
+    phones: list[str] | None = None
+    pause_after: float = 0.0
+
+
+def _money(token: str) -> list[str]:
+    symbol = token[0]
+    one, many, sub_one, sub_many = CURRENCY[symbol]
+    body = token[1:].strip().replace(",", "")
+    scale = ""
+    m = re.match(r"([\d.]+)\s?(k|m|bn|million|billion|thousand)?$", body)
+    if m is None:
+        raise TranscriptError(f"cannot read the amount {token!r}")
+    amount, scale = m.group(1), m.group(2) or ""
+    scale_word = {"k": "thousand", "m": "million", "bn": "billion"}.get(scale, scale)
+    if scale_word:
+        return numbers.decimal(amount) + [scale_word, many]
+    whole, _, frac = amount.partition(".")
+    n = int(whole or 0)
+    words = numbers.cardinal(n) + [one if n == 1 else many]
+    if frac:
+        cents = int((frac + "0")[:2])
+        if cents:
+            words += ["and"] + numbers.cardinal(cents) + [sub_one if cents == 1 else sub_many]
+    return words
+
+
+def _number(token: str, next_word: str | None) -> list[str]:
+    token = token.replace(",", "")
+    if "." in token:
+        return numbers.decimal(token)
+    n = int(token)
+    if len(token) == 4 and 1100 <= n <= 2099 and next_word not in {"dollars", "people", "times"}:
+        return numbers.year(n)
+    if len(token) > 1 and token.startswith("0"):
+        return numbers.digits(token)
+    return numbers.cardinal(n)
+
+
+def _time(token: str) -> list[str]:
+    m = re.match(r"(\d{1,2}):(\d{2})\s?([ap])?", token)
+    h, mins, ampm = int(m.group(1)), int(m.group(2)), m.group(3)
+    words = numbers.cardinal(h)
+    if mins == 0:
+        words += [] if ampm else ["o'clock"]
+    elif mins < 10:
+        words += ["oh"] + numbers.cardinal(mins)
+    else:
+        words += numbers.cardinal(mins)
+    if ampm:
+        words += [ampm + "", "m"] if False else [ampm, "m"]
+    return words
+
+
+def _strip_stage_directions(text: str) -> str:
+    return _STAGE.sub(" ", text)
+
+
+def normalize(text: str) -> list[Word]:
+    """Turn a transcript into the list of words that are spoken.
+
+    Raises :class:`TranscriptError` if nothing speakable is left.
+    """
+    if text is None or not text.strip():
+        raise TranscriptError("the transcript is empty")
+    text = text.translate(_QUOTES)
+    lines = text.splitlines()
+    # A line holding only a roman numeral is a heading (a sonnet's number).
+    lines = [(" ".join(numbers.cardinal(_roman_value(l.strip()))) + ".")
+             if _ROMAN.match(l.strip()) and len(l.strip()) > 1 else l for l in lines]
+    text = _strip_stage_directions("\n".join(lines))
+    words: list[Word] = []
+    tokens = list(_TOKEN.finditer(text))
+    for i, m in enumerate(tokens):
+        kind, tok = m.lastgroup, m.group()
+        following = tokens[i + 1].group().lower() if i + 1 < len(tokens) else None
+        if kind == "pause":
+            if words:
+                words[-1].pause_after = max(words[-1].pause_after, PAUSE_MARKS[tok])
+            continue
+        if kind == "forced":
+            word, _, phones = tok.partition("{")
+            phones = phones.rstrip("}").split()
+            if not phones:
+                raise TranscriptError(f"empty pronunciation in {tok!r}")
+            words.append(Word(word.lower().strip("'") or "{" + " ".join(phones) + "}", tok,
+                              [p.upper() for p in phones]))
+            continue
+        if kind == "money":
+            spoken = _money(tok)
+        elif kind == "time":
+            spoken = _time(tok)
+        elif kind == "ordinal":
+            spoken = numbers.ordinal(int(tok[:-2]))
+        elif kind == "percent":
+            spoken = _number(tok.rstrip("% ").strip(), None) + ["percent"]
+        elif kind == "number":
+            spoken = _number(tok, following)
+        elif kind == "symbol":
+            spoken = [SYMBOLS[tok]]
+        else:
+            spoken, ends_sentence = _word(tok, following, tokens[i + 1] if i + 1 < len(tokens) else None)
+            for s in spoken:
+                words.append(Word(s, tok))
+            if ends_sentence:
+                words[-1].pause_after = 1.0
+            continue
+        for s in spoken:
+            words.append(Word(s, tok))
+    if not words:
+        raise TranscriptError("the transcript has no spoken words (only punctuation or stage directions)")
+    return words
+
+
+def _word(tok: str, following: str | None, next_match) -> tuple[list[str], bool]:
+    """Expand one written word; returns its spoken words and whether a full
+    stop that belonged to it also ends a sentence."""
+    has_dot = tok.endswith(".")
+    bare = tok.rstrip(".")
+    low = bare.lower()
+    if low in ABBREVIATIONS and (has_dot or low not in _NEEDS_DOT):
+        expansion = ABBREVIATIONS[low]
+        if low == "st" and not (following and following[:1].isalpha() and next_match is not None
+                                and next_match.group()[:1].isupper()):
+            expansion = "street"
+        return expansion.split(), False
+    if re.fullmatch(r"(?:[A-Za-z]\.){2,}", tok):  # U.S.A. -> u s a
+        return [ch.lower() for ch in tok if ch.isalpha()], False
+    parts = [p for p in re.split(r"[-.]", low) if p.strip("'")]
+    parts = [p.strip("'") if p.count("'") and (p.startswith("'") and not p.startswith("'t")) else p
+             for p in parts]
+    return [p for p in parts if p], has_dot
+
+
+def _roman_value(s: str) -> int:
+    values = {"I": 1, "V": 5, "X": 10, "L": 50, "C": 100, "D": 500, "M": 1000}
+    total = 0
+    for a, b in zip(s, s[1:] + " "):
+        v = values[a]
+        total += -v if b in values and values[b] > v else v
+    return total

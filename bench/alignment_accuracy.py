@@ -1,0 +1,71 @@
+"""Alignment accuracy against reference phone boundaries.
+
+Reads the recordings in ../shared/data (skips when absent).  For each clip
+with a reference phone tier, aligns the transcript to the audio and matches
+aligned phones to reference phones in order (edit-distance alignment of the two
+phone strings), then reports the share of phone starts within 20 ms and 40 ms
+of the reference and the median start error.
+
+    .venv/bin/python bench/alignment_accuracy.py
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from common import reference_phones
+from addon.engine import pipeline
+from addon.engine.importers import read_textgrid
+
+
+def match(hyp: list[str], ref: list[str]) -> list[tuple[int, int]]:
+    """Pairs (i, j) of equal phones on a minimum edit path."""
+    n, m = len(hyp), len(ref)
+    cost = np.zeros((n + 1, m + 1))
+    cost[:, 0] = np.arange(n + 1)
+    cost[0, :] = np.arange(m + 1)
+    for i in range(1, n + 1):
+        for j in range(1, m + 1):
+            sub = 0 if hyp[i - 1] == ref[j - 1] else 1
+            cost[i, j] = min(cost[i - 1, j] + 1, cost[i, j - 1] + 1, cost[i - 1, j - 1] + sub)
+    pairs = []
+    i, j = n, m
+    while i and j:
+        sub = 0 if hyp[i - 1] == ref[j - 1] else 1
+        if cost[i, j] == cost[i - 1, j - 1] + sub:
+            if sub == 0:
+                pairs.append((i - 1, j - 1))
+            i, j = i - 1, j - 1
+        elif cost[i, j] == cost[i - 1, j] + 1:
+            i -= 1
+        else:
+            j -= 1
+    return pairs[::-1]
+
+
+def main() -> None:
+    print(f"{'clip':18s} {'phones':>6s} {'matched':>7s} {'<=20ms':>7s} {'<=40ms':>7s} {'median':>8s} {'est.':>5s} {'time':>6s}")
+    groups: dict[str, list[float]] = {"mfa": [], "praatio": [], "all": []}
+    for name, audio, text, grid, phoneset in reference_phones():
+        ref = read_textgrid(grid, phoneset)
+        t0 = time.perf_counter()
+        al = pipeline.align_file(audio, text)
+        dt = time.perf_counter() - t0
+        hyp = [p.phone for p in al.phones]
+        pairs = match(hyp, [p.phone for p in ref.phones])
+        err = np.array([abs(al.phones[i].start - ref.phones[j].start) for i, j in pairs])
+        group = "mfa" if name.endswith("corpus") else "praatio"
+        groups[group].extend(err)
+        groups["all"].extend(err)
+        print(f"{name:18s} {len(ref.phones):6d} {len(pairs):7d} {np.mean(err <= 0.02):7.1%} "
+              f"{np.mean(err <= 0.04):7.1%} {np.median(err) * 1000:6.1f}ms {al.n_estimated:5d} {dt:5.2f}s")
+    for g, e in groups.items():
+        e = np.array(e)
+        print(f"{'[' + g + ']':18s} {'':6s} {len(e):7d} {np.mean(e <= 0.02):7.1%} {np.mean(e <= 0.04):7.1%} "
+              f"{np.median(e) * 1000:6.1f}ms")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,53 @@
+"""Shared helpers for the benchmarks: where the real recordings are."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = Path(os.environ.get("LIPSYNC_DATA", ROOT.parent / "shared" / "data"))
+sys.path.insert(0, str(ROOT))
+
+
+def need_data() -> Path:
+    """The shared recordings folder, or exit cleanly (status 0) when absent."""
+    if not DATA.is_dir():
+        print(f"skipped: {DATA} is not here (set LIPSYNC_DATA to the recordings folder)")
+        raise SystemExit(0)
+    return DATA
+
+
+def transcript_clips() -> list[tuple[str, Path, str]]:
+    """Every clip with a transcript: (name, audio path, transcript text)."""
+    d = need_data()
+    clips = []
+    for wav, lab in (("praatio/bobby.wav", "Bobby ripped the ledger"),
+                     ("praatio/mary.wav", "Mary rolled the barrel"),
+                     ("praatio/damon_set_test.wav", "Damon fried the omelet")):
+        clips.append((Path(wav).stem, d / wav, lab))
+    for lab in sorted((d / "mfa").glob("*.lab")) + sorted((d / "common_voice").glob("*.lab")):
+        audio = next(p for p in lab.parent.glob(lab.stem + ".*") if p.suffix in {".wav", ".flac", ".mp3"})
+        clips.append((lab.stem, audio, lab.read_text(encoding="utf-8")))
+    for line in (d / "voice_quality" / "transcripts.tsv").read_text(encoding="utf-8").splitlines()[1:]:
+        name, text, _ = line.split("\t")
+        clips.append((Path(name).stem, d / "voice_quality" / name, text))
+    for txt in sorted((d / "librivox").glob("*.txt")):
+        clips.append((txt.stem, txt.with_suffix(".mp3"), txt.read_text(encoding="utf-8")))
+    return clips
+
+
+def reference_phones() -> list[tuple[str, Path, str, Path, str]]:
+    """Clips with reference phone tiers: (name, audio, transcript, TextGrid, phone set)."""
+    d = need_data()
+    return [
+        ("bobby", d / "praatio/bobby.wav", "Bobby ripped the ledger", d / "praatio/bobby_phones.TextGrid", "arpabet"),
+        ("mary", d / "praatio/mary.wav", "Mary rolled the barrel", d / "praatio/mary.TextGrid", "ipa"),
+        ("damon", d / "praatio/damon_set_test.wav", "Damon fried the omelet",
+         d / "praatio/damon_set_test.TextGrid", "sampa"),
+        ("acoustic_corpus", d / "mfa/acoustic_corpus.wav", (d / "mfa/acoustic_corpus.lab").read_text(),
+         d / "mfa/acoustic_corpus.TextGrid", "arpabet"),
+        ("cold_corpus", d / "mfa/cold_corpus.wav", (d / "mfa/cold_corpus.lab").read_text(),
+         d / "mfa/cold_corpus.TextGrid", "arpabet"),
+    ]

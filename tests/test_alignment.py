@@ -1,0 +1,148 @@
+import json
+import subprocess
+import sys
+import wave
+
+import numpy as np
+import pytest
+
+from conftest import FIXTURES, ROOT, SAMPLE
+from addon.engine import audio as audio_mod
+from addon.engine.align import AlignSettings
+from addon.engine.errors import AlignmentError, AudioError, LipSyncError, TranscriptError
+from addon.engine.pipeline import align_file, analyze
+
+
+def write_wav(path, samples, rate=16000, channels=1):
+    data = (np.clip(samples, -1, 1) * 32767).astype("<i2")
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(channels)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes(data.tobytes())
+
+
+def test_every_word_aligned_in_order():
+    text = (FIXTURES / "bob_map.txt").read_text()
+    al = align_file(FIXTURES / "bob_map.wav", text)
+    assert [w.text for w in al.words] == ["bob", "bought", "a", "map"]
+    assert not any(w.estimated for w in al.words)
+    starts = [p.start for p in al.phones]
+    assert starts == sorted(starts)
+    assert [p.phone for p in al.phones][:3] == ["B", "AA", "B"]
+    # The last word is not dropped and ends inside the audio.
+    assert al.words[-1].end <= al.duration and al.words[-1].end > al.words[-2].end
+
+
+def test_alignment_finds_the_speech_not_the_silence(tmp_path):
+    snd = audio_mod.load(FIXTURES / "bob_map.wav")
+    pad = np.zeros(int(snd.rate * 1.5), np.float32)
+    write_wav(tmp_path / "padded.wav", np.concatenate([pad, snd.samples, pad]))
+    al = align_file(tmp_path / "padded.wav", "Bob bought a map.")
+    plain = align_file(FIXTURES / "bob_map.wav", "Bob bought a map.")
+    assert al.words[0].start > 1.3
+    shift = np.array([a.start - b.start for a, b in zip(al.phones, plain.phones)])
+    assert np.median(np.abs(shift - 1.5)) < 0.03
+
+
+def test_long_pause_and_chunking(fixtures):
+    text = "First part of the line. And the second part after a long pause."
+    al = align_file(fixtures / "pause.wav", text, settings=AlignSettings(max_chunk=2.0))
+    assert len(al.words) == 13 and [w.text for w in al.words][-1] == "pause"
+    gap = al.words[5].start - al.words[4].end
+    assert gap > 0.5          # the pause is found between "line" and "and"
+    assert al.n_estimated == 0
+
+
+def test_sample_with_every_format(tmp_path):
+    text = (SAMPLE / "hello.txt").read_text()
+    snd = audio_mod.load(SAMPLE / "hello.wav")
+    stereo = np.stack([snd.samples, snd.samples * 0.5], axis=1).reshape(-1)
+    write_wav(tmp_path / "stereo44k.wav", np.interp(np.arange(0, len(snd.samples), 16000 / 44100),
+                                                   np.arange(len(snd.samples)), snd.samples), 44100)
+    write_wav(tmp_path / "stereo.wav", stereo, 16000, channels=2)
+    for f in ("stereo44k.wav", "stereo.wav"):
+        r = analyze(tmp_path / f, text, fps=24)
+        assert len(r.alignment.words) == 16 and r.alignment.n_estimated == 0
+
+
+def test_missing_unreadable_empty_audio(tmp_path):
+    with pytest.raises(AudioError, match="not found"):
+        analyze(tmp_path / "nope.wav", "hello")
+    bad = tmp_path / "bad.wav"
+    bad.write_bytes(b"RIFF this is not audio at all" * 10)
+    with pytest.raises(AudioError, match="cannot read audio"):
+        analyze(bad, "hello")
+    empty = tmp_path / "empty.wav"
+    empty.write_bytes(b"")
+    with pytest.raises(AudioError, match="empty"):
+        analyze(empty, "hello")
+
+
+def test_silence_is_a_clear_error(tmp_path):
+    write_wav(tmp_path / "silence.wav", np.zeros(32000))
+    with pytest.raises(AudioError, match="no speech"):
+        analyze(tmp_path / "silence.wav", "hello there")
+
+
+def test_empty_transcript_is_a_clear_error():
+    with pytest.raises(TranscriptError, match="empty"):
+        analyze(FIXTURES / "bob_map.wav", "  ")
+
+
+def test_mismatched_transcript_is_caught_or_marked():
+    text = ("The quick brown fox jumps over the lazy dog while seven wizards "
+            "quietly juggle extraordinary luminous pineapples near the harbour")
+    try:
+        r = analyze(FIXTURES / "bob_map.wav", text)
+    except AlignmentError as exc:
+        assert "transcript" in str(exc)
+    else:
+        # Twenty words cannot fit into 1.7 s of four words: most are estimated.
+        assert r.alignment.n_estimated > 0
+
+
+def test_cli_json_contract(tmp_path):
+    out, csv_out = tmp_path / "o.json", tmp_path / "o.csv"
+    cmd = [sys.executable, "-m", "addon", "analyze", str(SAMPLE / "hello.wav"), "--transcript",
+           str(SAMPLE / "hello.txt"), "--viseme-set", "oculus", "--emotion", "happy",
+           "--coarticulation", "rules", "--fps", "29.97", "--json", str(out), "--csv", str(csv_out)]
+    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(out.read_text())
+    assert doc["fps"] == pytest.approx(30000 / 1001)
+    assert doc["viseme_set"] == "oculus" and doc["visemes"][0] == "sil"
+    assert {"word", "start", "end", "estimated"} <= set(doc["words"][0])
+    assert {"phone", "start", "end", "word_index", "pitch_hz", "intensity_db", "weight",
+            "estimated"} <= set(doc["phonemes"][0])
+    frames = np.array(doc["frames"]["weights"])
+    assert frames.shape == (len(doc["frames"]["time"]), 15)
+    assert frames.min() >= 0 and frames.max() <= 1
+    assert doc["duration"] == pytest.approx(6.33, abs=0.05)
+    lines = csv_out.read_text().splitlines()
+    assert lines[0].startswith("frame,time,sil,PP") and len(lines) == len(doc["frames"]["time"]) + 1
+
+
+def test_cli_errors_are_one_line(tmp_path):
+    run = subprocess.run([sys.executable, "-m", "addon", "analyze", str(tmp_path / "x.wav"), "--text", "hi",
+                          "--json", str(tmp_path / "o.json")], cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 1
+    assert run.stderr.startswith("error: audio file not found") and "Traceback" not in run.stderr
+    run = subprocess.run([sys.executable, "-m", "addon", "analyze", str(FIXTURES / "bob_map.wav"),
+                          "--emotion", "furious", "--text", "Bob", "--json", str(tmp_path / "o.json")],
+                         cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 1 and "built-in presets" in run.stderr
+
+
+def test_imported_alignment_skips_the_aligner(tmp_path):
+    tsv = tmp_path / "cues.tsv"
+    tsv.write_text("0.00\tX\n0.30\tA\n0.45\tD\n0.80\tX\n")
+    r = analyze(FIXTURES / "bob_map.wav", None, alignment=tsv, viseme_set="rhubarb", fps=100)
+    a = r.viseme_set.index("A")
+    k = int(0.37 * 100)
+    assert r.curves[k, a] > 0.85
+
+
+def test_bad_fps():
+    with pytest.raises(LipSyncError, match="frame rate"):
+        analyze(FIXTURES / "bob_map.wav", "Bob bought a map", fps="fast")

@@ -1,0 +1,74 @@
+import json
+
+import pytest
+
+from addon.engine import presets
+from addon.engine.errors import PresetError
+
+
+def test_all_builtin_presets_load():
+    assert presets.builtin_names() == ["neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted"]
+    for name in presets.builtin_names():
+        p = presets.load(name)
+        assert p["name"] == name
+        assert set(p["dominance"]["classes"]) >= {"vowel", "bilabial", "silence"}
+
+
+def test_angry_and_happy_wider_and_sharper_than_sad():
+    sad, angry, happy = (presets.load(n) for n in ("sad", "angry", "happy"))
+    for loud in (angry, happy):
+        assert loud["weights"]["range_scale"]["vowel"][2] > sad["weights"]["range_scale"]["vowel"][2]
+        assert loud["rules"]["t_onset"] < sad["rules"]["t_onset"]
+        assert loud["dominance"]["classes"]["vowel"]["theta"] > sad["dominance"]["classes"]["vowel"]["theta"]
+        assert loud["smoothing"] < sad["smoothing"]
+
+
+def write(tmp_path, doc):
+    f = tmp_path / "p.json"
+    f.write_text(json.dumps(doc))
+    return f
+
+
+def test_user_preset_overrides_base(tmp_path):
+    f = write(tmp_path, {"name": "mine", "base": "angry", "rules": {"t_onset": 0.2}})
+    p = presets.load(f)
+    assert p["rules"]["t_onset"] == 0.2
+    assert p["weights"]["range_scale"]["vowel"] == presets.load("angry")["weights"]["range_scale"]["vowel"]
+
+
+@pytest.mark.parametrize("doc, field", [
+    ({"rules": {"influence": {"VC": "a lot"}}}, "rules.influence.VC"),
+    ({"rules": {"t_onset": -1}}, "rules.t_onset"),
+    ({"weights": {"range_scale": {"vowel": [1, 2]}}}, "weights.range_scale.vowel"),
+    ({"weights": {"other_source": "loudness"}}, "weights.other_source"),
+    ({"weights": {"pitch_range": [300, 100]}}, "weights.pitch_range"),
+    ({"dominance": {"classes": {"bilabial": {"alpha": 0}}}}, "dominance.classes.bilabial.alpha"),
+    ({"rules": {"deletion": {"phones": ["HH", "QQ"]}}}, "rules.deletion.phones"),
+    ({"smoothing": 5}, "smoothing"),
+    ({"wobble": 1}, "wobble"),
+    ({"base": "nonexistent"}, "name"),
+])
+def test_malformed_preset_names_the_field(tmp_path, doc, field):
+    with pytest.raises(PresetError) as err:
+        presets.load(write(tmp_path, {"name": "bad", **doc}))
+    assert err.value.field == field
+    assert field in str(err.value)
+
+
+def test_invalid_json_and_missing_file(tmp_path):
+    f = tmp_path / "broken.json"
+    f.write_text("{ not json")
+    with pytest.raises(PresetError, match="not valid JSON: line 1"):
+        presets.load(f)
+    with pytest.raises(PresetError, match="does not exist"):
+        presets.load(tmp_path / "missing.json")
+
+
+def test_flat_round_trip_and_save(tmp_path):
+    p = presets.load("happy")
+    assert presets.from_flat(presets.to_flat(p)) == p
+    presets.save(p, tmp_path / "h.json")
+    assert presets.load(tmp_path / "h.json") == p
+    p["rules"]["apex"] = 7
+    with pytest.raises(PresetError, match="rules.apex"):
+        presets.save(p, tmp_path / "bad.json")

@@ -1,0 +1,75 @@
+import pytest
+
+from addon.engine import lts
+from addon.engine.errors import TranscriptError
+from addon.engine.pronounce import Lexicon
+from addon.engine.text import Word, normalize
+
+
+def pron(word, lexicon=None):
+    return (lexicon or Lexicon()).pronounce(Word(word, word))
+
+
+def test_cmu_dictionary_without_stress():
+    p = pron("hello")
+    assert p.source == "cmudict"
+    assert p.phones == ["HH", "AH", "L", "OW"]
+
+
+@pytest.mark.parametrize("word, expected", [
+    ("beauty's", ["B", "Y", "UW", "T", "IY", "Z"]),
+    ("tatter'd", ["T", "AE", "T", "ER", "D"]),
+    ("feel'st", ["F", "IY", "L", "S", "T"]),
+    ("thriftless", ["TH", "R", "IH", "F", "T", "L", "AH", "S"]),
+])
+def test_unknown_words_derived_from_known_parts(word, expected):
+    p = pron(word)
+    assert p.source == "derived"
+    assert p.phones == expected
+
+
+def test_letter_to_sound_for_made_up_words():
+    p = pron("blorptastic")
+    assert p.source == "rules"
+    assert p.phones[:4] == ["B", "L", "AO", "R"]
+    assert "P" in p.phones and p.phones[-1] == "K"
+
+
+@pytest.mark.parametrize("word, first", [("knight", "N"), ("photo", "F"), ("cheese", "CH"), ("gnome", "N")])
+def test_letter_to_sound_rules(word, first):
+    assert lts.spell(word)[0] == first
+
+
+def test_every_word_gets_a_pronunciation():
+    lx = Lexicon()
+    for w in normalize("Zxqv grplfnk ooo aaa xyzzy"):
+        assert lx.pronounce(w).phones
+
+
+def test_inline_override_wins():
+    w = normalize("hello{HH EH1 L OW0}")[0]
+    p = Lexicon().pronounce(w)
+    assert (p.source, p.phones) == ("inline", ["HH", "EH", "L", "OW"])
+
+
+def test_inline_override_with_bad_phone_is_named():
+    w = normalize("hello{HH XX L OW}")[0]
+    with pytest.raises(TranscriptError, match="XX"):
+        Lexicon().pronounce(w)
+
+
+def test_user_dictionary_file(tmp_path):
+    f = tmp_path / "user.dict"
+    f.write_text(";;; my words\nquokka K W AA1 K AH0\nhello HH EH L OW\n", encoding="utf-8")
+    lx = Lexicon.with_user_file(f)
+    assert pron("quokka", lx).phones == ["K", "W", "AA", "K", "AH"]
+    assert pron("hello", lx).source == "user"
+
+
+def test_user_dictionary_errors_name_line(tmp_path):
+    f = tmp_path / "bad.dict"
+    f.write_text("fine F AY N\nbroken B R Q K\n", encoding="utf-8")
+    with pytest.raises(TranscriptError, match="line 2.*Q"):
+        Lexicon.with_user_file(f)
+    with pytest.raises(TranscriptError, match="not found"):
+        Lexicon.with_user_file(tmp_path / "missing.dict")
