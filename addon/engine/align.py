@@ -304,8 +304,31 @@ def _phone_pass(decoder, pcm: bytes, got: list[str]):
     return [w[1] for w in words]
 
 
+def _cover_speech(decoder, pcm, mask, side, kind, used, payload, lo, hi, first):
+    """The grammar search may stop early, letting "silence" swallow speech it
+    fits poorly.  If much of the chunk's speech lies outside the words found,
+    force more words (as many as fit at the speaking rate measured on the
+    words found) and keep the first count that aligns."""
+    frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
+    if side == "head":
+        uncovered = float(mask[frames[-1][1]:].sum()) * FRAME
+    else:
+        uncovered = float(mask[:frames[0][0]].sum()) * FRAME
+    if uncovered < 0.35:
+        return kind, used, payload
+    per_word = max(0.08, sum(b - a for a, b in frames) * FRAME / used)
+    extra = max(1, int(round(uncovered / per_word)))
+    for n in sorted({used + extra + d for d in (0, -1, 1, -2, 2) if used < used + extra + d < hi - lo},
+                    key=lambda n: abs(n - used - extra)):
+        window = range(lo, lo + n) if side == "head" else range(hi - n, hi)
+        res = _decode(decoder, pcm, "all", [f"w{first + i}" for i in window], "all")
+        if res[0] != "failed":
+            return res
+    return kind, used, payload
+
+
 def _run_side(side: str, pcms: list[bytes], speech: list[float], prons: list[list[str]],
-              first: int, settings: AlignSettings):
+              first: int, settings: AlignSettings, masks: list[np.ndarray] | None = None):
     """Align chunks one after another from one end of the transcript.
 
     "head" walks forward from word ``first``; "tail" walks backward from the
@@ -334,6 +357,9 @@ def _run_side(side: str, pcms: list[bytes], speech: list[float], prons: list[lis
             if used < size or size == hi - lo - 1:
                 break
             guess *= 2  # every candidate was used: the window was too small
+        if masks is not None and used < hi - lo - 1:
+            kind, used, payload = _cover_speech(decoder, pcms[k], masks[k], side, kind, used, payload,
+                                                lo, hi, first)
         a, b = (lo, lo + used) if side == "head" else (hi - used, hi)
         out.append((k, first + a, first + b, kind, payload))
         lo, hi = (b, hi) if side == "head" else (lo, a)
@@ -478,6 +504,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     chunks = plan_chunks(mask, settings, audio.duration)
     pcms = [audio.pcm16(c.start, c.end) for c in chunks]
     speech = [c.speech for c in chunks]
+    masks = [mask[int(round(c.start / FRAME)): int(round(c.end / FRAME))] for c in chunks]
     result: list[list[tuple[str, float, float]] | None] = [None] * n
     est = [False] * n
     notes: list[str] = []
@@ -508,10 +535,10 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     pool = _pool(settings) if head_n and tail_n else None
     runner = pool or _Inline()
     try:
-        fut_h = runner.submit(_run_side, "head", pcms[:head_n], speech[:head_n], prons, 0, settings) \
-            if head_n else None
-        fut_t = runner.submit(_run_side, "tail", pcms[K - tail_n:], speech[K - tail_n:], prons, 0, settings) \
-            if tail_n else None
+        fut_h = runner.submit(_run_side, "head", pcms[:head_n], speech[:head_n], prons, 0, settings,
+                              masks[:head_n]) if head_n else None
+        fut_t = runner.submit(_run_side, "tail", pcms[K - tail_n:], speech[K - tail_n:], prons, 0, settings,
+                              masks[K - tail_n:]) if tail_n else None
         heads = fut_h.result() if fut_h else []
         tails = fut_t.result() if fut_t else []
     finally:
@@ -532,7 +559,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         rest = range(c_lo, c_hi - 1)
         walked = 0
         for k, wa, wb, kind, payload in _run_side("head", [pcms[k] for k in rest], [speech[k] for k in rest],
-                                                  prons[lo:hi], lo, settings):
+                                                  prons[lo:hi], lo, settings, [masks[k] for k in rest]):
             place(kind, payload, wa, wb, chunks[c_lo + k].start, chunks[c_lo + k].end)
             lo, walked = wb, k + 1
         c_lo += walked
