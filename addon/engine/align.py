@@ -96,10 +96,6 @@ class Alignment:
     def n_estimated(self) -> int:
         return sum(p.estimated for p in self.phones)
 
-    @classmethod
-    def from_phones(cls, phones: list[AlignedPhone], words: list[AlignedWord], duration: float):
-        return cls(words, phones, duration)
-
 
 # ---------------------------------------------------------------------------
 # Voice activity from short-time energy

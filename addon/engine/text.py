@@ -128,7 +128,7 @@ def _time(token: str) -> list[str]:
     else:
         words += numbers.cardinal(mins)
     if ampm:
-        words += [ampm + "", "m"] if False else [ampm, "m"]
+        words += [ampm, "m"]  # read as letters: "a m", "p m"
     return words
 
 
