@@ -324,7 +324,7 @@ def _cover_speech(decoder, pcm, mask, side, kind, used, payload, lo, hi, first):
 
 
 def _run_side(side: str, pcms: list[bytes], speech: list[float], prons: list[list[str]],
-              first: int, settings: AlignSettings, masks: list[np.ndarray] | None = None):
+              first: int, settings: AlignSettings, masks: list[np.ndarray]):
     """Align chunks one after another from one end of the transcript.
 
     "head" walks forward from word ``first``; "tail" walks backward from the
@@ -353,7 +353,7 @@ def _run_side(side: str, pcms: list[bytes], speech: list[float], prons: list[lis
             if used < size or size == hi - lo - 1:
                 break
             guess *= 2  # every candidate was used: the window was too small
-        if masks is not None and used < hi - lo - 1:
+        if used < hi - lo - 1:
             kind, used, payload = _cover_speech(decoder, pcms[k], masks[k], side, kind, used, payload,
                                                 lo, hi, first)
         a, b = (lo, lo + used) if side == "head" else (hi - used, hi)
