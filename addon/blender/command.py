@@ -1,0 +1,158 @@
+"""``blender --command lipsync``: batch lip sync without opening the UI.
+
+    blender -b scene.blend --command lipsync --all-strips --output out.blend
+    blender -b scene.blend --command lipsync --mesh Bob --audio line1.wav --audio line2.wav --save
+
+Each ``--audio`` file is placed after the previous one (from ``--frame``,
+or the scene's start), with its transcript from ``--text``/``--transcript``
+or the .txt beside it.  Strips go to their own mesh by the rule that
+*Generate for All Strips* uses.  The exit status is 0 when everything was
+lip-synced, 1 when something was not (each problem is printed), 2 for a
+usage error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+import bpy
+
+from ..engine import presets, visemes
+from ..engine.errors import LipSyncError
+from . import compat, run, sources
+
+COMMAND = "lipsync"
+
+
+def parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog=f"blender -b FILE.blend --command {COMMAND}",
+                                 description="Lip-sync sound strips or audio files onto meshes' shape keys.")
+    what = ap.add_argument_group("what to lip-sync (default: every sound strip)")
+    what.add_argument("--strip", action="append", default=[], metavar="NAME", help="a sound strip (repeatable)")
+    what.add_argument("--all-strips", action="store_true", help="every sound strip of the scene")
+    what.add_argument("--audio", action="append", default=[], metavar="FILE", help="an audio file (repeatable)")
+    what.add_argument("--frame", type=int, help="frame the first --audio file starts on (default: scene start)")
+    ap.add_argument("--scene", help="scene name (default: the file's active scene)")
+    ap.add_argument("--mesh", help="face mesh (required for --audio; for strips, used when a strip names none)")
+    text = ap.add_mutually_exclusive_group()
+    text.add_argument("--text", help="transcript for a single --strip/--audio")
+    text.add_argument("--transcript", metavar="FILE", help="transcript file for a single --strip/--audio")
+    ap.add_argument("--emotion", default=None, help="preset name or .json file (default: the scene's panel)")
+    ap.add_argument("--viseme-set", help="viseme set of the mesh (name or .json file)")
+    ap.add_argument("--coarticulation", choices=("dominance", "rules"))
+    ap.add_argument("--tolerance", type=float, default=None, help="key reduction tolerance (0: every frame)")
+    ap.add_argument("--dictionary", help="pronunciation dictionary file")
+    out = ap.add_mutually_exclusive_group()
+    out.add_argument("--save", action="store_true", help="save the .blend in place")
+    out.add_argument("--output", metavar="FILE.blend", help="save to this file")
+    return ap
+
+
+def _fixed_text(args) -> str | None:
+    if args.text is not None:
+        return args.text
+    if args.transcript:
+        try:
+            with open(args.transcript, encoding="utf-8-sig") as fh:
+                return fh.read()
+        except OSError as exc:
+            raise LipSyncError(f"cannot read transcript {args.transcript}: {exc.strerror}") from None
+    return None
+
+
+def _set_viseme_set(obj, value: str) -> None:
+    st = obj.emotive_lipsync
+    if value in visemes.builtin_names():
+        st.viseme_set = value
+    else:
+        visemes.load(value)  # a clear error now rather than per clip
+        st.viseme_set, st.viseme_set_file = "FILE", value
+    st.mapping.clear()
+
+
+def execute(argv: list[str]) -> int:
+    try:
+        args = parser().parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0) and 2
+    scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
+    if scene is None:
+        print(f"lipsync: no scene named {args.scene!r}", file=sys.stderr)
+        return 2
+    st = scene.emotive_lipsync
+    problems: list[str] = []
+    done: list[run.Summary] = []
+    try:
+        preset = presets.load(args.emotion) if args.emotion else st.preset()
+        tol = args.tolerance if args.tolerance is not None else (st.tolerance if st.reduce_keys else 0.0)
+        options = run.Options(preset, args.coarticulation or st.coarticulation, tol,
+                              args.dictionary or (bpy.path.abspath(st.dictionary) if st.dictionary else None))
+        mesh = None
+        if args.mesh:
+            mesh = bpy.data.objects.get(args.mesh)
+            if mesh is None:
+                raise LipSyncError(f"no object named {args.mesh!r}")
+            if args.viseme_set:
+                _set_viseme_set(mesh, args.viseme_set)
+        fixed = _fixed_text(args)
+        if fixed is not None and len(args.audio) + len(args.strip) != 1:
+            raise LipSyncError("--text/--transcript need exactly one --strip or --audio; for several, put a "
+                               ".txt beside each audio file")
+        jobs = []  # (mesh, clip factory, transcript)
+        if args.audio:
+            if mesh is None:
+                raise LipSyncError("--audio needs --mesh")
+            frame = args.frame if args.frame is not None else scene.frame_start
+            for path in args.audio:
+                clip = sources.file_clip(path, frame)
+                frame += math.ceil(clip.audio.duration * sources.scene_fps(scene)) + 1
+                jobs.append((mesh, clip, None))
+        strips = [sources.strip_by_name(scene, n) for n in args.strip]
+        if args.all_strips or (not args.strip and not args.audio):
+            strips = sorted(compat.sound_strips(scene), key=lambda s: (s.frame_final_start, s.channel))
+            if not strips:
+                raise LipSyncError(f"scene {scene.name!r} has no sound strips")
+        for strip in strips:
+            jobs.append((strip, None, None))
+    except LipSyncError as exc:
+        print(f"lipsync: {exc}", file=sys.stderr)
+        return 1
+
+    for target, clip, _ in jobs:
+        try:
+            if clip is None:  # a strip
+                strip = target
+                obj = sources.strip_target(strip, mesh)
+                if obj is None:
+                    raise LipSyncError(f"strip {strip.name!r}: no mesh (give --mesh, set the strip's "
+                                       "lipsync_target property, or name the strip after the mesh)")
+                if args.viseme_set and obj is not mesh:
+                    _set_viseme_set(obj, args.viseme_set)
+                clip = sources.strip_clip(scene, strip)
+                text = fixed if fixed is not None else sources.strip_transcript(strip, clip.audio_path)[0]
+            else:
+                obj = target
+                text = fixed if fixed is not None else sources.transcript(audio_path=clip.audio_path)[0]
+            summary = run.generate(scene, obj, clip, text, options)
+            done.append(summary)
+            print(summary.message())
+        except LipSyncError as exc:
+            problems.append(str(exc))
+            print(f"lipsync: {exc}", file=sys.stderr)
+
+    if done and (args.save or args.output):
+        if args.output:
+            bpy.ops.wm.save_as_mainfile(filepath=bpy.path.abspath(args.output), copy=False)
+        elif bpy.data.filepath:
+            bpy.ops.wm.save_mainfile()
+        else:
+            problems.append("--save: the scene has never been saved; use --output FILE.blend")
+            print(f"lipsync: {problems[-1]}", file=sys.stderr)
+        if not problems or args.output or bpy.data.filepath:
+            print(f"lipsync: saved {bpy.data.filepath}")
+    elif done:
+        print("lipsync: nothing saved (add --save or --output FILE.blend)")
+    print(f"lipsync: {len(done)} of {len(jobs)} lip-synced, {len(problems)} problems")
+    return 0 if done and not problems else 1

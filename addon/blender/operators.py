@@ -1,0 +1,318 @@
+"""Operators.  Each is thin: resolve its targets (by name, so scripts and
+``blender --background`` drive the same operators users click), turn the
+settings into plain values, call :mod:`.run`, report.
+
+Every operator is undoable; errors are reported and cancel the operator
+before anything has been written.
+"""
+
+from __future__ import annotations
+
+import os
+import traceback
+
+import bpy
+from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
+
+from ..engine import mapping as mapping_mod
+from ..engine import presets, visemes
+from ..engine.errors import LipSyncError
+from . import compat, keying, run, sources
+
+
+def _mesh(context, name: str):
+    if name:
+        obj = bpy.data.objects.get(name)
+        if obj is None:
+            raise LipSyncError(f"no object named {name!r}")
+        return obj
+    st = context.scene.emotive_lipsync
+    return st.target or context.active_object
+
+
+def _options(context, emotion: str, coarticulation: str, tolerance: float) -> run.Options:
+    st = context.scene.emotive_lipsync
+    preset = presets.load(_preset_source(emotion)) if emotion else st.preset()
+    tol = tolerance if tolerance >= 0 else (st.tolerance if st.reduce_keys else 0.0)
+    dictionary = bpy.path.abspath(st.dictionary) if st.dictionary else None
+    return run.Options(preset, coarticulation or st.coarticulation, tol, dictionary)
+
+
+def _preset_source(name: str) -> str:
+    """A built-in name, a user preset's name, or a path."""
+    if name in presets.builtin_names() or name.endswith(".json"):
+        return bpy.path.abspath(name) if name.endswith(".json") else name
+    from . import preset_ui
+
+    user = os.path.join(preset_ui.user_dir(create=False), name + ".json")
+    return user if os.path.isfile(user) else name
+
+
+class _Progress:
+    """The window manager's progress indicator (a no-op in the background)."""
+
+    def __init__(self, context, parts: int = 1):
+        self.wm = context.window_manager
+        self.parts = parts
+        self.part = 0
+        self.wm.progress_begin(0, 1000)
+
+    def __call__(self, _step, frac):
+        self.wm.progress_update(int(1000 * (self.part + frac) / self.parts))
+
+    def end(self):
+        self.wm.progress_end()
+
+
+def _fail(op, exc: Exception) -> set:
+    if isinstance(exc, LipSyncError):
+        op.report({"ERROR"}, str(exc))
+    else:
+        traceback.print_exc()
+        op.report({"ERROR"}, f"Lip sync failed unexpectedly ({type(exc).__name__}: {exc}); "
+                             "the console has the details")
+    return {"CANCELLED"}
+
+
+class LIPSYNC_OT_generate(bpy.types.Operator):
+    """Lip-sync one sound strip or audio file onto the face mesh's shape keys"""
+
+    bl_idname = "emotive_lipsync.generate"
+    bl_label = "Generate Lip Sync"
+    bl_options = {"REGISTER", "UNDO"}
+
+    strip: StringProperty(name="Strip", description="Sound strip name (empty: the panel's choice)")
+    filepath: StringProperty(name="Audio File", subtype="FILE_PATH",
+                             description="Audio file to use instead of a strip")
+    frame: IntProperty(name="Start Frame", default=-1, description="Frame an audio file starts on "
+                                                                   "(-1: the panel's start frame)")
+    mesh: StringProperty(name="Mesh", description="Face mesh name (empty: the panel's face, else the active "
+                                                  "object)")
+    text: StringProperty(name="Transcript", description="Transcript (empty: the panel's)")
+    emotion: StringProperty(name="Emotion", description="Preset name or .json path (empty: the panel's "
+                                                        "preset, with its edited numbers)")
+    coarticulation: StringProperty(name="Coarticulation", description="dominance or rules (empty: the panel's)")
+    tolerance: FloatProperty(name="Tolerance", default=-1.0,
+                             description="Key reduction tolerance; 0 keys every frame (-1: the panel's)")
+
+    def execute(self, context):
+        scene = context.scene
+        st = scene.emotive_lipsync
+        progress = _Progress(context)
+        try:
+            obj = _mesh(context, self.mesh)
+            run.check_mesh(obj)
+            options = _options(context, self.emotion, self.coarticulation, self.tolerance)
+            if self.filepath or (not self.strip and st.source == "FILE"):
+                path = self.filepath or st.audio_file
+                frame = self.frame if self.frame >= 0 else st.start_frame
+                clip = sources.file_clip(path, frame)
+            else:
+                name = self.strip or st.strip
+                strip = sources.strip_by_name(scene, name) if name else sources.active_sound_strip(scene)
+                if strip is None:
+                    raise LipSyncError("no sound strip: add one to the sequencer, pick it in the Lip Sync "
+                                       "panel, or choose an audio file")
+                clip = sources.strip_clip(scene, strip)
+            text, _where = (sources.transcript(self.text) if self.text else
+                            sources.transcript(st.text, st.text_block, clip.audio_path))
+            summary = run.generate(scene, obj, clip, text, options, progress)
+        except Exception as exc:  # noqa: BLE001 - reported, never a traceback in the UI
+            return _fail(self, exc)
+        finally:
+            progress.end()
+        self.report({"INFO"}, summary.message())
+        return {"FINISHED"}
+
+
+class LIPSYNC_OT_generate_all(bpy.types.Operator):
+    """Lip-sync every sound strip of the sequencer, each onto its own mesh (the strip's lipsync_target \
+property, else the mesh its name starts with)"""
+
+    bl_idname = "emotive_lipsync.generate_all"
+    bl_label = "Generate for All Strips"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mesh: StringProperty(name="Fallback Mesh", description="Mesh for strips that name none (empty: skip them)")
+    emotion: StringProperty(name="Emotion", description="Preset name or .json path (empty: the panel's)")
+    coarticulation: StringProperty(name="Coarticulation", description="dominance or rules (empty: the panel's)")
+    tolerance: FloatProperty(name="Tolerance", default=-1.0, description="Key reduction tolerance "
+                                                                         "(-1: the panel's)")
+
+    def execute(self, context):
+        scene = context.scene
+        strips = sorted(compat.sound_strips(scene), key=lambda s: (s.frame_final_start, s.channel))
+        if not strips:
+            self.report({"ERROR"}, "the sequencer has no sound strips")
+            return {"CANCELLED"}
+        try:
+            options = _options(context, self.emotion, self.coarticulation, self.tolerance)
+            fallback = bpy.data.objects.get(self.mesh) if self.mesh else None
+            if self.mesh and fallback is None:
+                raise LipSyncError(f"no object named {self.mesh!r}")
+        except Exception as exc:  # noqa: BLE001
+            return _fail(self, exc)
+        progress = _Progress(context, len(strips))
+        done, problems = [], []
+        try:
+            for i, strip in enumerate(strips):
+                progress.part = i
+                try:
+                    obj = sources.strip_target(strip, fallback)
+                    if obj is None:
+                        raise LipSyncError(f"strip {strip.name!r}: no mesh (set its lipsync_target property "
+                                           "or name it after the mesh)")
+                    run.check_mesh(obj)
+                    clip = sources.strip_clip(scene, strip)
+                    text, _where = sources.strip_transcript(strip, clip.audio_path)
+                    done.append(run.generate(scene, obj, clip, text, options, progress))
+                except LipSyncError as exc:
+                    problems.append(str(exc))
+        finally:
+            progress.end()
+        for p in problems:
+            self.report({"WARNING"}, p)
+        if not done:
+            self.report({"ERROR"}, f"no strip was lip-synced ({len(problems)} problems, listed above)")
+            return {"CANCELLED"}
+        secs = sum(s.seconds for s in done)
+        self.report({"INFO"}, f"Lip sync: {len(done)} of {len(strips)} strips onto "
+                              f"{len({s.mesh for s in done})} meshes, {sum(s.keys for s in done)} keys, "
+                              f"in {secs:.1f} s")
+        return {"FINISHED"}
+
+
+class LIPSYNC_OT_clear(bpy.types.Operator):
+    """Remove the lip-sync keys this add-on wrote on the mesh; keys you set yourself stay"""
+
+    bl_idname = "emotive_lipsync.clear"
+    bl_label = "Clear Lip Sync"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mesh: StringProperty(name="Mesh", description="Mesh name (empty: the panel's face, else the active object)")
+
+    def execute(self, context):
+        try:
+            obj = _mesh(context, self.mesh)
+            run.check_mesh(obj)
+        except Exception as exc:  # noqa: BLE001
+            return _fail(self, exc)
+        if not keying.lipsynced(obj):
+            self.report({"WARNING"}, f"{obj.name!r} has no lip sync made by this add-on")
+            return {"CANCELLED"}
+        counts = keying.clear(obj)
+        self.report({"INFO"}, f"Removed {counts['keys']} lip-sync keys from {obj.name}")
+        return {"FINISHED"}
+
+
+class LIPSYNC_OT_auto_map(bpy.types.Operator):
+    """Map the viseme set's visemes to the mesh's shape keys by their names (the default set, Oculus, \
+Preston Blair, Rhubarb and ARKit conventions)"""
+
+    bl_idname = "emotive_lipsync.auto_map"
+    bl_label = "Auto-Map Shape Keys"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mesh: StringProperty(name="Mesh", description="Mesh name (empty: the panel's face, else the active object)")
+    viseme_set: StringProperty(name="Viseme Set", description="Built-in set name (empty: the mesh's; "
+                                                              "'guess': the set that maps the most)")
+
+    def execute(self, context):
+        try:
+            obj = _mesh(context, self.mesh)
+            names = run.check_mesh(obj)
+            st = obj.emotive_lipsync
+            if self.viseme_set == "guess":
+                best = max(visemes.builtin_names(),
+                           key=lambda n: _coverage(visemes.load(n), names))
+                st.viseme_set = best
+            elif self.viseme_set:
+                if self.viseme_set not in visemes.builtin_names():
+                    raise LipSyncError(f"{self.viseme_set!r} is not a built-in viseme set: "
+                                       f"{', '.join(visemes.builtin_names())}")
+                st.viseme_set = self.viseme_set
+            vset = visemes.load(st.viseme_set_source())
+            mp = mapping_mod.auto_map(vset, names)
+        except Exception as exc:  # noqa: BLE001
+            return _fail(self, exc)
+        if not mp:
+            self.report({"ERROR"}, f"none of the shape keys of {obj.name!r} match the viseme set {vset.name!r}")
+            return {"CANCELLED"}
+        st.set_mapping(mp)
+        missing = mapping_mod.unmapped(vset, mp)
+        msg = f"Mapped {len(mp)} of {len(vset.visemes)} visemes of {vset.name!r} on {obj.name}"
+        self.report({"WARNING"} if missing else {"INFO"},
+                    msg + (f"; unmapped: {', '.join(missing)}" if missing else ""))
+        return {"FINISHED"}
+
+
+def _coverage(vset, names) -> int:
+    return len(mapping_mod.auto_map(vset, names))
+
+
+class LIPSYNC_OT_mapping_add(bpy.types.Operator):
+    """Add a row to the mapping: one viseme driving one shape key"""
+
+    bl_idname = "emotive_lipsync.mapping_add"
+    bl_label = "Add Mapping"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = context.scene.emotive_lipsync.target or context.active_object
+        if obj is None or obj.type != "MESH":
+            self.report({"ERROR"}, "no face mesh")
+            return {"CANCELLED"}
+        st = obj.emotive_lipsync
+        item = st.mapping.add()
+        item.viseme = visemes.load(st.viseme_set_source()).visemes[0]
+        st.mapping_index = len(st.mapping) - 1
+        return {"FINISHED"}
+
+
+class LIPSYNC_OT_mapping_remove(bpy.types.Operator):
+    """Remove the selected row of the mapping"""
+
+    bl_idname = "emotive_lipsync.mapping_remove"
+    bl_label = "Remove Mapping"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = context.scene.emotive_lipsync.target or context.active_object
+        if obj is None or obj.type != "MESH" or not len(obj.emotive_lipsync.mapping):
+            return {"CANCELLED"}
+        st = obj.emotive_lipsync
+        st.mapping.remove(st.mapping_index)
+        st.mapping_index = max(0, min(st.mapping_index, len(st.mapping) - 1))
+        return {"FINISHED"}
+
+
+class LIPSYNC_OT_use_sidecar_text(bpy.types.Operator):
+    """Load the .txt beside the audio file into the transcript field"""
+
+    bl_idname = "emotive_lipsync.load_transcript"
+    bl_label = "Load Transcript File"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(subtype="FILE_PATH")
+    filter_glob: StringProperty(default="*.txt", options={"HIDDEN"})
+
+    def invoke(self, context, _event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        try:
+            with open(bpy.path.abspath(self.filepath), encoding="utf-8-sig") as fh:
+                body = fh.read()
+        except OSError as exc:
+            self.report({"ERROR"}, f"cannot read {self.filepath}: {exc.strerror}")
+            return {"CANCELLED"}
+        name = os.path.basename(self.filepath)
+        block = bpy.data.texts.new(name)
+        block.from_string(body)
+        context.scene.emotive_lipsync.text_block = block
+        return {"FINISHED"}
+
+
+classes = (LIPSYNC_OT_generate, LIPSYNC_OT_generate_all, LIPSYNC_OT_clear, LIPSYNC_OT_auto_map,
+           LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_use_sidecar_text)

@@ -1,0 +1,201 @@
+"""The "Lip Sync" tab of the 3D View sidebar.  Drawing only: what is missing
+is shown before Generate is pressed, computed from the data, never changed."""
+
+from __future__ import annotations
+
+import os
+
+import bpy
+
+from ..engine import mapping as mapping_mod
+from ..engine import visemes
+from ..engine.errors import LipSyncError
+from . import compat, keying, sources
+from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
+                        LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_use_sidecar_text)
+from .preset_ui import LIPSYNC_MT_emotion_presets, LIPSYNC_OT_preset_add
+
+
+def _face(context):
+    st = context.scene.emotive_lipsync
+    obj = st.target or context.active_object
+    return obj if obj is not None and obj.type == "MESH" else None
+
+
+def _strips_prop():
+    return "strips_all" if hasattr(bpy.types.SequenceEditor, "bl_rna") and \
+        "strips_all" in bpy.types.SequenceEditor.bl_rna.properties else "sequences_all"
+
+
+def problems(context) -> list[str]:
+    """What stops Generate from working, in words an animator reads."""
+    st = context.scene.emotive_lipsync
+    out = []
+    obj = _face(context)
+    if obj is None:
+        out.append("No face mesh: pick one or select it")
+    elif obj.data.shape_keys is None or len(obj.data.shape_keys.key_blocks) < 2:
+        out.append(f"{obj.name} has no shape keys")
+    else:
+        ost = obj.emotive_lipsync
+        try:
+            vset = visemes.load(ost.viseme_set_source())
+            mp = ost.mapping_dict() or mapping_mod.auto_map(vset, [k.name for k in obj.data.shape_keys.key_blocks])
+            missing = mapping_mod.unmapped(vset, mp)
+            if not mp:
+                out.append(f"No shape key of {obj.name} matches {vset.name}")
+            elif missing:
+                out.append(f"Unmapped visemes: {', '.join(missing)}")
+        except LipSyncError as exc:
+            out.append(str(exc))
+    audio_path = None
+    if st.source == "FILE":
+        path = bpy.path.abspath(st.audio_file)
+        if not st.audio_file:
+            out.append("No audio file")
+        elif not os.path.isfile(path):
+            out.append(f"Audio file not found: {st.audio_file}")
+        audio_path = path
+    else:
+        strip = None
+        if st.strip:
+            strip = next((s for s in compat.sound_strips(context.scene) if s.name == st.strip), None)
+            if strip is None:
+                out.append(f"No sound strip named {st.strip}")
+        else:
+            strip = sources.active_sound_strip(context.scene)
+            if strip is None:
+                out.append("No sound strip: add one, or pick an audio file")
+        if strip is not None and strip.sound is not None and strip.sound.packed_file is None:
+            audio_path = sources.sound_path(strip.sound)
+    has_text = (st.text_block is not None and st.text_block.as_string().strip()) or st.text.strip() or \
+        (audio_path and sources.sidecar_transcript(audio_path))
+    if not has_text:
+        out.append("No transcript: type it, pick a text block, or save a .txt beside the audio")
+    return out
+
+
+class LIPSYNC_UL_mapping(bpy.types.UIList):
+    def draw_item(self, _context, layout, data, item, _icon, _active_data, _active_propname, _index=0):
+        obj = data.id_data
+        row = layout.row(align=True)
+        row.label(text=item.viseme)
+        key = obj.data.shape_keys if obj.type == "MESH" else None
+        if key is not None:
+            row.prop_search(item, "shape_key", key, "key_blocks", text="")
+        else:
+            row.prop(item, "shape_key", text="")
+        row.prop(item, "weight", text="")
+
+
+class _Panel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Lip Sync"
+
+
+class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
+    bl_label = "Lip Sync"
+
+    def draw(self, context):
+        layout = self.layout
+        st = context.scene.emotive_lipsync
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+
+        col = layout.column()
+        col.prop(st, "source", expand=True)
+        if st.source == "STRIP":
+            ed = context.scene.sequence_editor
+            if ed is not None:
+                col.prop_search(st, "strip", ed, _strips_prop(), text="Strip")
+            else:
+                col.label(text="The sequencer is empty", icon="INFO")
+        else:
+            col.prop(st, "audio_file")
+            col.prop(st, "start_frame")
+
+        col = layout.column(heading="Transcript")
+        col.prop(st, "text_block")
+        if st.text_block is None:
+            col.prop(st, "text", text="Text")
+            col.operator(LIPSYNC_OT_use_sidecar_text.bl_idname, icon="FILE_TEXT", text="Load .txt")
+
+        layout.prop(st, "target")
+
+        issues = problems(context)
+        box = layout.box() if issues else None
+        for msg in issues:
+            box.label(text=msg, icon="ERROR")
+        row = layout.row()
+        row.scale_y = 1.6
+        row.enabled = not issues
+        row.operator(LIPSYNC_OT_generate.bl_idname, icon="PLAY_SOUND")
+        row = layout.row(align=True)
+        row.operator(LIPSYNC_OT_generate_all.bl_idname, icon="SEQUENCE")
+        face = _face(context)
+        sub = row.row(align=True)
+        sub.enabled = face is not None and keying.lipsynced(face)
+        sub.operator(LIPSYNC_OT_clear.bl_idname, icon="X", text="Clear")
+
+
+class LIPSYNC_PT_shapes(_Panel, bpy.types.Panel):
+    bl_label = "Visemes and Shape Keys"
+    bl_parent_id = "LIPSYNC_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        obj = _face(context)
+        if obj is None:
+            layout.label(text="Pick a face mesh first")
+            return
+        ost = obj.emotive_lipsync
+        layout.use_property_split = True
+        layout.prop(ost, "viseme_set")
+        if ost.viseme_set == "FILE":
+            layout.prop(ost, "viseme_set_file")
+        layout.operator(LIPSYNC_OT_auto_map.bl_idname, icon="AUTO")
+        row = layout.row()
+        row.template_list("LIPSYNC_UL_mapping", "", ost, "mapping", ost, "mapping_index", rows=6)
+        col = row.column(align=True)
+        col.operator(LIPSYNC_OT_mapping_add.bl_idname, icon="ADD", text="")
+        col.operator(LIPSYNC_OT_mapping_remove.bl_idname, icon="REMOVE", text="")
+        if not len(ost.mapping):
+            layout.label(text="Empty: Generate maps by name automatically", icon="INFO")
+
+
+class LIPSYNC_PT_emotion(_Panel, bpy.types.Panel):
+    bl_label = "Emotion and Motion"
+    bl_parent_id = "LIPSYNC_PT_main"
+
+    def draw(self, context):
+        layout = self.layout
+        st = context.scene.emotive_lipsync
+        row = layout.row(align=True)
+        row.menu(LIPSYNC_MT_emotion_presets.bl_idname, text=bpy.path.display_name(st.emotion) or "Preset")
+        row.operator(LIPSYNC_OT_preset_add.bl_idname, text="", icon="ADD")
+        row.operator(LIPSYNC_OT_preset_add.bl_idname, text="", icon="REMOVE").remove_active = True
+        layout.use_property_split = True
+        layout.prop(st, "coarticulation")
+        col = layout.column(heading="Keys")
+        col.prop(st, "reduce_keys")
+        sub = col.column()
+        sub.active = st.reduce_keys
+        sub.prop(st, "tolerance")
+        layout.prop(st, "dictionary")
+        layout.use_property_split = False
+        layout.prop(st, "show_preset_values", icon="TRIA_DOWN" if st.show_preset_values else "TRIA_RIGHT",
+                    emboss=False)
+        if st.show_preset_values:
+            if not len(st.preset_values):
+                layout.label(text="Pick a preset to edit its numbers")
+            box = layout.box().column(align=True)
+            for item in st.preset_values:
+                row = box.row(align=True)
+                row.label(text=item.path)
+                prop = {"NUMBER": "number", "TRIPLE": "triple"}.get(item.kind, "text")
+                row.prop(item, prop, text="")
+
+
+classes = (LIPSYNC_UL_mapping, LIPSYNC_PT_main, LIPSYNC_PT_shapes, LIPSYNC_PT_emotion)

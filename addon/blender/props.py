@@ -1,0 +1,156 @@
+"""Settings stored in the .blend: per scene (what to lip-sync, and how) and
+per object (which viseme set the mesh follows and which shape keys show
+each viseme)."""
+
+from __future__ import annotations
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
+                       IntProperty, PointerProperty, StringProperty)
+
+from ..engine import presets, visemes
+
+VISEME_SETS = [(n, n.replace("_", " ").title() if n != "arkit" else "ARKit", visemes.load(n).description)
+               for n in visemes.builtin_names()] + [("FILE", "From File", "A viseme set of your own (JSON file)")]
+
+
+class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
+    """One viseme driving one shape key with a weight."""
+
+    viseme: StringProperty(name="Viseme", description="Viseme of the mesh's viseme set")
+    shape_key: StringProperty(name="Shape Key", description="Shape key this viseme drives")
+    weight: FloatProperty(name="Weight", description="How much of the viseme's curve goes into the shape key",
+                          default=1.0, min=0.0, soft_max=1.0, max=2.0)
+
+
+class LIPSYNC_PG_object(bpy.types.PropertyGroup):
+    viseme_set: EnumProperty(name="Viseme Set", items=VISEME_SETS, default="default",
+                             description="The mouth shapes this mesh's shape keys follow")
+    viseme_set_file: StringProperty(name="Viseme Set File", subtype="FILE_PATH",
+                                    description="A viseme set JSON file (see the README)")
+    mapping: CollectionProperty(type=LIPSYNC_PG_mapping_item)
+    mapping_index: IntProperty(name="Active Mapping", default=0)
+
+    def viseme_set_source(self) -> str:
+        return bpy.path.abspath(self.viseme_set_file) if self.viseme_set == "FILE" else self.viseme_set
+
+    def mapping_dict(self) -> dict[str, dict[str, float]]:
+        out: dict[str, dict[str, float]] = {}
+        for item in self.mapping:
+            if item.viseme and item.shape_key:
+                out.setdefault(item.viseme, {})[item.shape_key] = item.weight
+        return out
+
+    def set_mapping(self, mapping: dict[str, dict[str, float]]) -> None:
+        self.mapping.clear()
+        for v, mix in mapping.items():
+            for k, w in mix.items():
+                item = self.mapping.add()
+                item.viseme, item.shape_key, item.weight = v, k, w
+        self.mapping_index = 0
+
+
+class LIPSYNC_PG_preset_value(bpy.types.PropertyGroup):
+    """One number (or triple, or word list) of an emotion preset."""
+
+    path: StringProperty(name="Field")
+    kind: EnumProperty(items=[("NUMBER", "Number", ""), ("TRIPLE", "Triple", ""), ("TEXT", "Text", ""),
+                              ("LIST", "List", "")], default="NUMBER")
+    number: FloatProperty(name="Value", precision=3)
+    triple: FloatVectorProperty(name="Value", size=3, precision=3)
+    text: StringProperty(name="Value")
+
+    def value(self):
+        if self.kind == "NUMBER":
+            return float(self.number)
+        if self.kind == "TRIPLE":
+            return [float(x) for x in self.triple]
+        if self.kind == "LIST":
+            return [_number_or_word(t) for t in self.text.split()]
+        return self.text
+
+
+def _number_or_word(token: str):
+    try:
+        return float(token)
+    except ValueError:
+        return token
+
+
+def _target_poll(_self, obj):
+    return obj.type == "MESH"
+
+
+class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
+    source: EnumProperty(name="Audio", default="STRIP", items=[
+        ("STRIP", "Sound Strip", "A sound strip of this scene's sequencer"),
+        ("FILE", "Audio File", "An audio file on disk"),
+    ])
+    strip: StringProperty(name="Strip", description="Sound strip to lip-sync (empty: the active sound strip)")
+    audio_file: StringProperty(name="File", subtype="FILE_PATH", description="Audio file to lip-sync")
+    start_frame: IntProperty(name="Start Frame", default=1, description="Frame the audio file starts on")
+    text: StringProperty(name="Transcript", description="What is said (a text block, or NAME.txt beside the "
+                                                         "audio, is used when this is empty)")
+    text_block: PointerProperty(name="Text Block", type=bpy.types.Text,
+                                description="A text block holding the transcript")
+    target: PointerProperty(name="Face", type=bpy.types.Object, poll=_target_poll,
+                            description="Mesh whose shape keys are animated (empty: the active object)")
+    emotion: StringProperty(name="Emotion", default="neutral",
+                            description="Emotion preset the numbers below were loaded from")
+    preset_values: CollectionProperty(type=LIPSYNC_PG_preset_value)
+    show_preset_values: BoolProperty(name="Preset Numbers", default=False)
+    coarticulation: EnumProperty(name="Coarticulation", default="dominance", items=[
+        ("dominance", "Dominance", "Cohen-Massaro dominance functions: smooth blending, tunable per "
+                                   "phoneme class"),
+        ("rules", "Rules", "Anticipation and carry-over rules per vowel/consonant context"),
+    ])
+    reduce_keys: BoolProperty(name="Reduce Keys", default=False,
+                              description="Keep only the keys needed to stay within the tolerance")
+    tolerance: FloatProperty(name="Tolerance", default=0.02, min=0.001, max=0.5, precision=3,
+                             description="Largest change in a shape key's value that dropping keys may cause")
+    dictionary: StringProperty(name="Dictionary", subtype="FILE_PATH",
+                               description="Your own pronunciations: lines of WORD PH1 PH2 ... (ARPAbet)")
+
+    def preset(self) -> dict:
+        """The preset as edited in the panel, validated."""
+        if not self.preset_values:
+            return presets.load(self.emotion)
+        flat = {item.path: item.value() for item in self.preset_values}
+        flat.setdefault("name", self.emotion)
+        return presets.resolve(presets.from_flat(flat), f"preset {self.emotion!r} (as edited)")
+
+    def load_preset(self, preset: dict, name: str) -> None:
+        self.preset_values.clear()
+        for path, value in presets.to_flat(preset).items():
+            if path in ("name", "description"):
+                continue
+            item = self.preset_values.add()
+            item.path = path
+            if isinstance(value, bool) or not isinstance(value, (int, float, list, str)):
+                item.kind, item.text = "TEXT", str(value)
+            elif isinstance(value, (int, float)):
+                item.kind, item.number = "NUMBER", float(value)
+            elif isinstance(value, list) and len(value) == 3 and all(isinstance(x, (int, float)) for x in value):
+                item.kind, item.triple = "TRIPLE", value
+            elif isinstance(value, list):
+                item.kind, item.text = "LIST", " ".join(str(x) for x in value)
+            else:
+                item.kind, item.text = "TEXT", value
+        self.emotion = name
+
+
+classes = (LIPSYNC_PG_mapping_item, LIPSYNC_PG_object, LIPSYNC_PG_preset_value, LIPSYNC_PG_scene)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.emotive_lipsync = PointerProperty(type=LIPSYNC_PG_scene)
+    bpy.types.Object.emotive_lipsync = PointerProperty(type=LIPSYNC_PG_object)
+
+
+def unregister():
+    del bpy.types.Object.emotive_lipsync
+    del bpy.types.Scene.emotive_lipsync
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,110 @@
+"""One lip-sync run: checks, the engine, the keys.
+
+Operators and the command line turn their properties and arguments into the
+plain values these functions take; nothing here reads the UI.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from ..engine import mapping as mapping_mod
+from ..engine import pipeline, visemes
+from ..engine.align import AlignSettings
+from ..engine.errors import LipSyncError
+from . import keying
+from .sources import Clip, scene_fps
+
+
+@dataclass
+class Options:
+    """How to lip-sync, as plain values."""
+
+    emotion: dict                        # a resolved preset
+    coarticulation: str = "dominance"
+    tolerance: float = 0.0               # 0: a key on every frame
+    dictionary: str | None = None
+    workers: int = 0
+
+
+@dataclass
+class Summary:
+    mesh: str
+    label: str
+    seconds: float
+    first_frame: int
+    last_frame: int
+    shape_keys: int
+    keys: int
+    replaced: int
+    estimated_words: int
+    words: int
+    timings: dict = field(default_factory=dict)
+
+    def message(self) -> str:
+        est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
+        again = " (replacing the previous lip sync)" if self.replaced else ""
+        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys, "
+                f"frames {self.first_frame}-{self.last_frame}{again}{est}, in {self.seconds:.1f} s")
+
+
+def check_mesh(obj) -> list[str]:
+    """The mesh's shape-key names, or a clear error."""
+    if obj is None:
+        raise LipSyncError("no face mesh: pick one in the Lip Sync panel, or make it the active object")
+    if obj.type != "MESH":
+        raise LipSyncError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh: lip sync animates a mesh's "
+                           "shape keys")
+    key = obj.data.shape_keys
+    if key is None or len(key.key_blocks) < 2:
+        raise LipSyncError(f"mesh {obj.name!r} has no shape keys to animate: add a Basis key and the mouth "
+                           "shapes (see sample_rigs/ for examples)")
+    return [kb.name for kb in key.key_blocks]
+
+
+def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]]]:
+    """The mesh's viseme set and mapping; filled in automatically when the
+    user has not mapped anything."""
+    names = check_mesh(obj)
+    st = obj.emotive_lipsync
+    vset = visemes.load(st.viseme_set_source())
+    mp = st.mapping_dict()
+    if not mp:
+        mp = mapping_mod.auto_map(vset, names)
+        if not mp and st.viseme_set != "FILE":
+            # The mesh follows another convention (ARKit names on a mesh
+            # left at the default set): take the set that maps the most.
+            best = max(visemes.builtin_names(), key=lambda n: len(mapping_mod.auto_map(visemes.load(n), names)))
+            if mapping_mod.auto_map(visemes.load(best), names):
+                st.viseme_set = best
+                vset = visemes.load(best)
+                mp = mapping_mod.auto_map(vset, names)
+        if not mp:
+            raise LipSyncError(f"none of the shape keys of {obj.name!r} match the viseme set {vset.name!r}: "
+                               "map them in the Lip Sync panel, or pick the viseme set the mesh was made for")
+        st.set_mapping(mp)
+    missing = sorted({k for mix in mp.values() for k in mix} - set(names))
+    if missing:
+        raise LipSyncError(f"mesh {obj.name!r} has no shape key named {', '.join(map(repr, missing))}: "
+                           "fix the mapping in the Lip Sync panel or press Auto-Map")
+    return vset, mp
+
+
+def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:
+    """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
+    t0 = time.perf_counter()
+    _vset, mp = mesh_mapping(obj)
+
+    result = pipeline.analyze(clip.audio, text, viseme_set=obj.emotive_lipsync.viseme_set_source(),
+                              emotion=options.emotion, coarticulation_model=options.coarticulation,
+                              fps=scene_fps(scene), dictionary=options.dictionary,
+                              settings=AlignSettings(workers=options.workers), progress=progress)
+    t1 = time.perf_counter()
+    names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, mp)
+    counts = keying.write(obj, names, values, clip.first_frame, options.tolerance, clip.label)
+    t2 = time.perf_counter()
+    words = result.alignment.words
+    return Summary(obj.name, clip.label, t2 - t0, counts["first_frame"], counts["last_frame"], len(names),
+                   counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated), len(words),
+                   {"engine": t1 - t0, "keying": t2 - t1})

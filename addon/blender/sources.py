@@ -1,0 +1,182 @@
+"""Where the audio, the transcript and the target mesh come from.
+
+Audio is decoded by Blender's own sound library (``aud``), so every format
+the sequencer plays works, ``//`` paths are resolved against the .blend and
+packed sounds are read from memory.  A sound strip's visible part is what
+gets lip-synced: trims, the strip's offset and the sound offset are applied,
+and the keys start on the strip's first visible frame.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ..engine.audio import Audio, from_samples
+from ..engine.errors import AudioError, LipSyncError, TranscriptError
+from . import compat
+
+#: Custom properties a sound strip may carry for batch runs.
+STRIP_TARGET = "lipsync_target"
+STRIP_TEXT = "lipsync_text"
+
+
+@dataclass
+class Clip:
+    """One line to lip-sync, in plain values."""
+
+    audio: Audio
+    first_frame: int
+    label: str
+    audio_path: str | None  # for finding a transcript beside it
+
+
+def scene_fps(scene) -> float:
+    return scene.render.fps / scene.render.fps_base
+
+
+def decode(path: str) -> Audio:
+    """Any file the sequencer can play -> mono float samples."""
+    import aud
+
+    if not path:
+        raise AudioError("no audio file given")
+    if not os.path.isfile(path):
+        raise AudioError(f"audio file not found: {path}")
+    try:
+        snd = aud.Sound(path)
+        rate = int(snd.specs[0])
+        data = snd.rechannel(1).data()
+    except Exception as exc:  # aud raises its own error types
+        raise AudioError(f"cannot decode {path}: {exc}") from None
+    if data is None or data.size == 0 or rate <= 0:
+        raise AudioError(f"{path} holds no audio")
+    return from_samples(np.asarray(data[:, 0], dtype=np.float32), rate)
+
+
+def sound_path(sound) -> str:
+    return bpy.path.abspath(sound.filepath, library=sound.library)
+
+
+def decode_sound(sound) -> Audio:
+    """A Sound datablock, packed or on disk."""
+    if sound.packed_file is not None:
+        ext = os.path.splitext(sound.filepath)[1] or ".wav"
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "packed" + ext)
+            with open(path, "wb") as fh:
+                fh.write(sound.packed_file.data)
+            return decode(path)
+    return decode(sound_path(sound))
+
+
+def strip_by_name(scene, name: str):
+    for s in compat.sound_strips(scene):
+        if s.name == name:
+            return s
+    raise LipSyncError(f"no sound strip named {name!r} in scene {scene.name!r}")
+
+
+def active_sound_strip(scene):
+    ed = scene.sequence_editor
+    s = ed.active_strip if ed is not None else None
+    if s is not None and s.type == "SOUND":
+        return s
+    strips = compat.sound_strips(scene)
+    return strips[0] if len(strips) == 1 else None
+
+
+def strip_clip(scene, strip) -> Clip:
+    """The visible part of a sound strip, and the frame it starts on."""
+    if strip.sound is None:
+        raise AudioError(f"sound strip {strip.name!r} has no sound")
+    snd = decode_sound(strip.sound)
+    fps = scene_fps(scene)
+    first = int(strip.frame_final_start)
+    t0 = (strip.frame_final_start - strip.frame_start) / fps + getattr(strip, "sound_offset", 0.0)
+    t1 = (strip.frame_final_end - strip.frame_start) / fps + getattr(strip, "sound_offset", 0.0)
+    a = max(0, int(round(t0 * snd.rate)))
+    b = min(len(snd.samples), int(round(t1 * snd.rate)))
+    if b - a < int(0.05 * snd.rate):
+        raise AudioError(f"sound strip {strip.name!r} shows less than 50 ms of its sound")
+    path = None if strip.sound.packed_file is not None else sound_path(strip.sound)
+    return Clip(Audio(snd.samples[a:b], snd.rate), first, strip.name, path)
+
+
+def file_clip(path: str, first_frame: int) -> Clip:
+    path = bpy.path.abspath(path)
+    return Clip(decode(path), first_frame, os.path.basename(path), path)
+
+
+def sidecar_transcript(audio_path: str | None) -> str | None:
+    """``line.txt`` beside ``line.wav``."""
+    if not audio_path:
+        return None
+    txt = os.path.splitext(audio_path)[0] + ".txt"
+    if os.path.isfile(txt):
+        with open(txt, encoding="utf-8-sig") as fh:
+            return fh.read()
+    return None
+
+
+def transcript(text: str = "", text_block=None, audio_path: str | None = None) -> tuple[str, str]:
+    """The transcript and where it came from: a text block, typed text, or
+    a .txt beside the audio, in that order."""
+    if text_block is not None:
+        body = text_block.as_string()
+        if not body.strip():
+            raise TranscriptError(f"the transcript is empty: text block {text_block.name!r} holds no text")
+        return body, f"text block {text_block.name!r}"
+    if text.strip():
+        return text, "typed text"
+    side = sidecar_transcript(audio_path)
+    if side is not None:
+        if not side.strip():
+            raise TranscriptError(f"the transcript is empty: {os.path.splitext(audio_path)[0]}.txt holds no text")
+        return side, os.path.basename(os.path.splitext(audio_path)[0] + ".txt")
+    where = f" or save it as {os.path.basename(os.path.splitext(audio_path)[0])}.txt beside the audio" \
+        if audio_path else ""
+    raise TranscriptError(f"the transcript is empty: type it, pick a text block{where}")
+
+
+def strip_transcript(strip, audio_path: str | None) -> tuple[str, str]:
+    """For batch runs: the strip's ``lipsync_text`` (a text block's name),
+    else the .txt beside its audio."""
+    name = strip.get(STRIP_TEXT)
+    if name:
+        block = bpy.data.texts.get(name)
+        if block is None:
+            raise TranscriptError(f"strip {strip.name!r}: its lipsync_text names {name!r}, "
+                                  "which is not a text block")
+        return transcript(text_block=block)
+    return transcript(audio_path=audio_path)
+
+
+def strip_target(strip, fallback=None):
+    """The mesh a strip lip-syncs in batch runs.
+
+    1. the object named by the strip's ``lipsync_target`` custom property;
+    2. else the mesh whose name the strip's name starts with, followed by the
+       end or a separator (``Bob`` for strips ``Bob``, ``Bob.001``,
+       ``Bob_line03``, ``Bob - take 2``); the longest such name wins;
+    3. else ``fallback``.
+    """
+    name = strip.get(STRIP_TARGET)
+    if name:
+        obj = bpy.data.objects.get(name)
+        if obj is None or obj.type != "MESH":
+            raise LipSyncError(f"strip {strip.name!r}: its lipsync_target names {name!r}, which is not a mesh")
+        return obj
+    best = None
+    for obj in bpy.data.objects:
+        if obj.type != "MESH" or not obj.name:
+            continue
+        if re.match(re.escape(obj.name) + r"($|[\s._\-])", strip.name):
+            if best is None or len(obj.name) > len(best.name):
+                best = obj
+    return best or fallback
