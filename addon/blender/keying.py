@@ -35,24 +35,77 @@ def _record(key) -> dict:
     return rec
 
 
-def _remove_range(fc, first: float, last: float) -> int:
+# Every keyframe property that a rewrite must carry over for the user's keys.
+_KEY_ATTRS = (("co", 2, np.float64), ("handle_left", 2, np.float64), ("handle_right", 2, np.float64),
+              ("interpolation", 1, np.int32), ("handle_left_type", 1, np.int32),
+              ("handle_right_type", 1, np.int32), ("type", 1, np.int32), ("easing", 1, np.int32),
+              ("back", 1, np.float64), ("amplitude", 1, np.float64), ("period", 1, np.float64),
+              ("select_control_point", 1, bool), ("select_left_handle", 1, bool),
+              ("select_right_handle", 1, bool))
+_EPS = 1e-4
+
+
+def _linear():
+    return bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
+
+
+def _get(kp, attr, size, dtype):
+    arr = np.empty(len(kp) * size, dtype=dtype)
+    kp.foreach_get(attr, arr)
+    return arr.reshape(-1, size)
+
+
+def replace_range(fc, first: float, last: float, frames=None, values=None, linear: bool = False) -> int:
+    """Swap the keys of ``fc`` in [first, last] for new ones, in bulk.
+
+    Keys outside the range keep every property (handles, interpolation,
+    easing, key type, selection).  Returns how many keys were removed.
+    ``frames=None`` only removes.
+    """
     kp = fc.keyframe_points
-    n = len(kp)
-    if n == 0:
-        return 0
-    co = np.empty(2 * n)
-    kp.foreach_get("co", co)
-    frames = co[0::2]
-    doomed = np.flatnonzero((frames >= first - 1e-4) & (frames <= last + 1e-4))
-    for i in doomed[::-1]:
-        kp.remove(kp[int(i)], fast=True)
-    return len(doomed)
+    frames = np.zeros(0) if frames is None else np.asarray(frames, dtype=np.float64)
+    values = np.zeros(0) if values is None else np.asarray(values, dtype=np.float64)
+    n, m = len(kp), len(frames)
+    saved, before, removed = {}, 0, 0
+    if n:
+        f = _get(kp, "co", 2, np.float64)[:, 0]
+        keep = (f < first - _EPS) | (f > last + _EPS)
+        removed = int(n - keep.sum())
+        if removed == 0 and m == 0:
+            return 0
+        saved = {a: _get(kp, a, size, dt)[keep] for a, size, dt in _KEY_ATTRS}
+        before = int((f[keep] < first).sum())
+        kp.clear()
+    k = len(saved["co"]) if saved else 0
+    if k + m == 0:
+        return removed
+    kp.add(k + m)
+    new = np.zeros(k + m, dtype=bool)
+    new[before:before + m] = True
+    for attr, size, dtype in _KEY_ATTRS:
+        if attr == "co":
+            arr = np.empty((k + m, 2))
+            arr[new, 0], arr[new, 1] = frames, values
+        elif k == 0 and not (attr == "interpolation" and linear):
+            continue  # the new keys keep Blender's defaults
+        else:
+            arr = _get(kp, attr, size, dtype)
+        if k:
+            arr[~new] = saved[attr]
+        if attr == "interpolation" and linear:
+            arr[new] = _linear()
+        kp.foreach_set(attr, arr.ravel())
+    fc.update()
+    return removed
 
 
 def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tolerance: float = 0.0,
           label: str = "") -> dict:
     """Key ``values`` (frames x shape keys) on ``obj`` from ``first_frame``.
 
+    With ``tolerance`` 0 every frame gets a linear key (exact, and no Bezier
+    overshoot past 0 or 1); otherwise :func:`..engine.keys.reduce` keeps the
+    keys needed and Blender's default Bezier keys smooth between them.
     Returns counts: keys written, keys replaced, F-curves created.
     """
     key = obj.data.shape_keys
@@ -62,31 +115,13 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
     written = replaced = created = 0
     for j, name in enumerate(shape_keys):
         path = data_path(name)
-        is_new = compat.find_fcurve(key, path) is None
-        fc = compat.ensure_fcurve(key, path, f"{obj.name}_LipSync", GROUP)
-        if is_new:
+        if compat.find_fcurve(key, path) is None:
             created += 1
             if name not in rec["created"]:
                 rec["created"].append(name)
-        replaced += _remove_range(fc, first_frame, last)
+        fc = compat.ensure_fcurve(key, path, f"{obj.name}_LipSync", GROUP)
         idx = key_reduction.reduce(values[:, j], tolerance)
-        kp = fc.keyframe_points
-        old = len(kp)
-        kp.add(len(idx))
-        co = np.empty(2 * (old + len(idx)))
-        if old:
-            kp.foreach_get("co", co)  # fills the old points; the new tail is overwritten below
-        co[2 * old::2] = first_frame + idx
-        co[2 * old + 1::2] = values[idx, j]
-        kp.foreach_set("co", co)
-        if tolerance <= 0:
-            # A key on every frame: linear between them is exact and stops
-            # Bezier handles overshooting past 0 or 1.
-            interp = np.empty(old + len(idx), dtype=np.int32)
-            kp.foreach_get("interpolation", interp)
-            interp[old:] = bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
-            kp.foreach_set("interpolation", interp)
-        fc.update()
+        replaced += replace_range(fc, first_frame, last, first_frame + idx, values[idx, j], linear=tolerance <= 0)
         written += len(idx)
         spans = rec["ranges"].setdefault(name, [])
         if [first_frame, last] not in spans:
@@ -111,12 +146,10 @@ def clear(obj) -> dict:
         if fc is None:
             continue
         for first, last in spans:
-            removed += _remove_range(fc, first, last)
+            removed += replace_range(fc, first, last)
         if name in rec["created"] and len(fc.keyframe_points) == 0 and not fc.modifiers:
             compat.remove_fcurve(key, fc)
             dropped += 1
-        else:
-            fc.update()
     del key[RECORD]
     return {"keys": removed, "fcurves_removed": dropped}
 

@@ -71,18 +71,16 @@ def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]]]:
     vset = visemes.load(st.viseme_set_source())
     mp = st.mapping_dict()
     if not mp:
-        mp = mapping_mod.auto_map(vset, names)
-        if not mp and st.viseme_set != "FILE":
-            # The mesh follows another convention (ARKit names on a mesh
-            # left at the default set): take the set that maps the most.
-            best = max(visemes.builtin_names(), key=lambda n: len(mapping_mod.auto_map(visemes.load(n), names)))
-            if mapping_mod.auto_map(visemes.load(best), names):
-                st.viseme_set = best
-                vset = visemes.load(best)
-                mp = mapping_mod.auto_map(vset, names)
-        if not mp:
+        # Nothing mapped yet: the set the mesh's names cover best (the one
+        # chosen for the mesh when it covers as much as any other).
+        found = mapping_mod.best_set([visemes.load(n) for n in visemes.builtin_names()]
+                                     if st.viseme_set != "FILE" else [vset], names, prefer=vset.name)
+        if found is None:
             raise LipSyncError(f"none of the shape keys of {obj.name!r} match the viseme set {vset.name!r}: "
                                "map them in the Lip Sync panel, or pick the viseme set the mesh was made for")
+        vset, mp = found
+        if st.viseme_set != "FILE":
+            st.viseme_set = vset.name
         st.set_mapping(mp)
     missing = sorted({k for mix in mp.values() for k in mix} - set(names))
     if missing:

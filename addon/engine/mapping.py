@@ -82,3 +82,33 @@ def shape_key_curves(curves: np.ndarray, visemes: list[str], mapping: dict[str, 
             mix[i, keys.index(k)] = w
     out = np.clip(np.asarray(curves, dtype=float) @ mix, 0.0, 1.0) if keys else np.zeros((len(curves), 0))
     return keys, out
+
+
+def coverage(vset: VisemeSet, mapping: dict[str, dict[str, float]]) -> float:
+    """Share of the set's visemes (the rest viseme aside) that drive a key."""
+    speaking = [v for v in vset.visemes if v != vset.rest]
+    return sum(1 for v in speaking if mapping.get(v)) / max(1, len(speaking))
+
+
+def best_set(sets: list[VisemeSet], shape_keys: list[str], prefer: str | None = None
+             ) -> tuple[VisemeSet, dict[str, dict[str, float]]] | None:
+    """The set whose visemes this mesh covers best, and its mapping.
+
+    Ties go to ``prefer`` (the mesh's current set), then to a set matched
+    through its own names rather than through a mix (so a mesh with Oculus
+    ``viseme_aa`` keys gets the Oculus set, not the ARKit set that also
+    recognises those names).
+    """
+    scored = []
+    for order, vs in enumerate(sets):
+        mp = auto_map(vs, shape_keys)
+        if not mp:
+            continue
+        via_mix = any(v in vs.shape_keys and len(vs.shape_keys[v]) > 0 and set(mix) <= set(vs.shape_keys[v])
+                      for v, mix in mp.items())
+        own_terms = via_mix or not vs.shape_keys  # matched the way the set is meant to be used
+        scored.append(((coverage(vs, mp), vs.name == prefer, own_terms, -order), vs, mp))
+    if not scored:
+        return None
+    _score, vs, mp = max(scored, key=lambda s: s[0])
+    return vs, mp

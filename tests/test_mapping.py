@@ -1,0 +1,72 @@
+"""Viseme -> shape-key mapping by name, mixing, and key reduction."""
+
+import numpy as np
+import pytest
+
+from addon.engine import keys, mapping, visemes
+
+OCULUS_NAMES = ["Basis"] + [f"viseme_{v}" for v in "sil PP FF TH DD kk CH SS nn RR aa E ih oh ou".split()]
+ARKIT_NAMES = ["Basis", "jawOpen", "mouthClose", "mouthFunnel", "mouthPucker", "mouthStretchLeft",
+               "mouthStretchRight", "mouthSmileLeft", "mouthSmileRight", "mouthRollLower", "eyeBlinkLeft"]
+
+
+def test_oculus_names_and_vrchat_spelling():
+    vs = visemes.load("oculus")
+    assert mapping.auto_map(vs, OCULUS_NAMES)["aa"] == {"viseme_aa": 1.0}
+    vrc = ["Basis"] + [f"vrc.v_{v.lower()}" for v in vs.visemes]
+    mp = mapping.auto_map(vs, vrc)
+    assert mp["PP"] == {"vrc.v_pp": 1.0} and len(mp) == 15
+
+
+def test_default_set_aliases_ignore_case_and_separators():
+    vs = visemes.load("default")
+    mp = mapping.auto_map(vs, ["Basis", "m_b_p", "F-V", "Ahh", "oo"])
+    assert mp == {"MBP": {"m_b_p": 1.0}, "FV": {"F-V": 1.0}, "AHH": {"Ahh": 1.0}, "UUU": {"oo": 1.0}}
+    assert "TH" in mapping.unmapped(vs, mp)
+
+
+def test_basis_is_never_driven():
+    vs = visemes.load("default")
+    assert mapping.auto_map(vs, ["MBP"]) == {}  # the first key is the basis
+
+
+def test_arkit_mix_keeps_the_blendshapes_the_mesh_has():
+    vs = visemes.load("arkit")
+    mp = mapping.auto_map(vs, ARKIT_NAMES)
+    assert mp["PP"] == {"mouthClose": 1.0}  # mouthPressLeft/Right are not on this mesh
+    assert mp["ou"] == {"jawOpen": 0.15, "mouthPucker": 0.9, "mouthFunnel": 0.3}
+    assert "eyeBlinkLeft" not in {k for mix in mp.values() for k in mix}
+    assert mp["FF"] == {"mouthRollLower": 0.7, "jawOpen": 0.05}
+    assert "sil" not in mp  # the rest pose drives nothing, and is not reported missing
+    assert mapping.unmapped(vs, mp) == []
+    assert mapping.unmapped(vs, mapping.auto_map(vs, ["Basis", "jawOpen"])) == ["PP"]
+
+
+def test_best_set_follows_the_mesh_naming_convention():
+    sets = [visemes.load(n) for n in visemes.builtin_names()]
+    assert mapping.best_set(sets, OCULUS_NAMES, prefer="default")[0].name == "oculus"
+    assert mapping.best_set(sets, ARKIT_NAMES, prefer="default")[0].name == "arkit"
+    rhubarb = ["Basis"] + [f"mouth_{c}" for c in "XABCDEFGH"]
+    assert mapping.best_set(sets, rhubarb)[0].name == "rhubarb"
+    assert mapping.best_set(sets, ["Basis", "Smile", "Blink"]) is None
+
+
+def test_shape_key_curves_sum_weighted_visemes_and_clip():
+    curves = np.array([[0.0, 0.0], [1.0, 0.0], [0.8, 0.9]])
+    names, out = mapping.shape_key_curves(curves, ["aa", "oh"], {"aa": {"jawOpen": 0.7}, "oh": {"jawOpen": 0.5,
+                                                                                              "funnel": 1.0}})
+    assert names == ["jawOpen", "funnel"]
+    assert out[:, 0] == pytest.approx([0.0, 0.7, 1.0])  # 0.56 + 0.45 clipped to 1
+    assert out[:, 1] == pytest.approx([0.0, 0.0, 0.9])
+
+
+def test_reduce_keeps_peaks_and_stays_within_tolerance():
+    t = np.linspace(0, 4 * np.pi, 400)
+    y = np.clip(np.sin(t) * np.exp(-t / 10), 0, None)
+    idx = keys.reduce(y, 0.01)
+    assert idx[0] == 0 and idx[-1] == len(y) - 1
+    assert len(idx) < 60
+    interp = np.interp(np.arange(len(y)), idx, y[idx])
+    assert np.abs(interp - y).max() <= 0.01 + 1e-12
+    assert np.argmax(y) in idx
+    assert np.array_equal(keys.reduce(y, 0.0), np.arange(len(y)))
