@@ -354,3 +354,46 @@ def test_disable_leaves_nothing_behind_and_enable_restores(extension):
         bpy.ops.preferences.addon_enable(module=MODULE)
     assert hasattr(bpy.types.Scene, "emotive_lipsync")
     assert sorted(n for n in dir(bpy.types) if n.startswith("LIPSYNC_")) == sorted(names)
+
+
+# --- panel state and presets ----------------------------------------------------
+
+def test_panel_lists_what_is_missing(scene):
+    panel = import_module(MODULE + ".blender.panel")
+    st = scene.emotive_lipsync
+    st.target = None
+    bpy.context.view_layer.objects.active = None
+    found = panel.problems(bpy.context)
+    assert any("No face mesh" in p for p in found)
+    assert any("No sound strip" in p for p in found)
+    assert any("No transcript" in p for p in found)
+    st.target = bpy.data.objects["Ada"]
+    ada = bpy.data.objects["Ada"]
+    ada.shape_key_remove(ada.data.shape_keys.key_blocks["FV"])
+    add_strip(scene, "line", BOB, frame=1)  # bob_map.txt lies beside it
+    assert panel.problems(bpy.context) == ["Unmapped visemes: FV"]
+
+
+def test_user_preset_saved_from_the_panel_drives_generation(scene):
+    st = scene.emotive_lipsync
+    assert bpy.ops.emotive_lipsync.preset_load(name="sad") == {"FINISHED"}
+    assert st.emotion == "sad" and len(st.preset_values) > 40
+    gain = next(v for v in st.preset_values if v.path == "gain")
+    gain.number = 0.5
+    assert bpy.ops.emotive_lipsync.preset_add(name="mumbly") == {"FINISHED"}
+    preset_ui = import_module(MODULE + ".blender.preset_ui")
+    path = os.path.join(preset_ui.user_dir(), "mumbly.json")
+    assert _engine("presets").load(path)["gain"] == 0.5
+    add_strip(scene, "line", BOB, frame=1)
+    assert _generate(mesh="Ada", emotion="mumbly") == {"FINISHED"}
+    soft = fcurve_values(bpy.data.objects["Ada"], "AHH")[1].max()
+    assert _generate(mesh="Ada", emotion="sad") == {"FINISHED"}
+    assert soft < fcurve_values(bpy.data.objects["Ada"], "AHH")[1].max()
+    with pytest.raises(RuntimeError, match="built-in preset"):
+        bpy.ops.emotive_lipsync.preset_add(name="angry")
+    st.emotion = "mumbly"
+    assert bpy.ops.emotive_lipsync.preset_add(remove_active=True) == {"FINISHED"}
+    assert not os.path.exists(path)
+    with pytest.raises(RuntimeError, match="not one of your presets"):
+        st.emotion = "sad"
+        bpy.ops.emotive_lipsync.preset_add(remove_active=True)
