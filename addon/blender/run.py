@@ -92,9 +92,23 @@ def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]]]:
 def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:
     """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
     t0 = time.perf_counter()
-    _vset, mp = mesh_mapping(obj)
-
-    result = pipeline.analyze(clip.audio, text, viseme_set=obj.emotive_lipsync.viseme_set_source(),
+    if options.emotion.get("learned"):
+        # A learned preset carries its own poses, in the training mesh's
+        # shape-key names.
+        names = set(check_mesh(obj))
+        poses = pipeline.viseme_set_for(options.emotion).shape_keys
+        mp = {v: {k: w for k, w in mix.items() if k in names} for v, mix in poses.items()}
+        mp = {v: mix for v, mix in mp.items() if mix}
+        if not mp:
+            wanted = sorted({k for mix in poses.values() for k in mix})
+            raise LipSyncError(f"the learned preset {options.emotion.get('name', '')!r} drives shape keys "
+                               f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
+                               "has none of them")
+        set_source = None
+    else:
+        _vset, mp = mesh_mapping(obj)
+        set_source = obj.emotive_lipsync.viseme_set_source()
+    result = pipeline.analyze(clip.audio, text, viseme_set=set_source,
                               emotion=options.emotion, coarticulation_model=options.coarticulation,
                               fps=scene_fps(scene), dictionary=options.dictionary,
                               settings=AlignSettings(workers=options.workers), progress=progress)

@@ -22,8 +22,9 @@ def _parser() -> argparse.ArgumentParser:
     src.add_argument("--text", help="what is said, inline")
     a.add_argument("--alignment", metavar="FILE",
                    help="use this alignment instead of aligning: .TextGrid, Rhubarb .json/.tsv, Papagayo .pgo")
-    a.add_argument("--viseme-set", default="default",
-                   help=f"built-in ({', '.join(visemes.builtin_names())}) or a .json file (default: default)")
+    a.add_argument("--viseme-set", default=None,
+                   help=f"built-in ({', '.join(visemes.builtin_names())}) or a .json file (default: default, or "
+                        "the set a learned preset was trained with)")
     a.add_argument("--emotion", default="neutral",
                    help=f"built-in preset ({', '.join(presets.builtin_names())}) or a .json file (default: neutral)")
     a.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
@@ -34,6 +35,21 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--csv", metavar="OUT", help="write the frame table as CSV")
     a.add_argument("--quiet", action="store_true", help="print nothing but errors")
     sub.add_parser("list", help="list built-in viseme sets and emotion presets")
+    le = sub.add_parser("learn", help="learn an emotion preset from example animation",
+                        description="Learn a preset from clips: each AUDIO file with its face-capture CSV "
+                                    "(AUDIO's name with .csv) and its transcript (.txt) or alignment "
+                                    "(.TextGrid) beside it.")
+    le.add_argument("audio", nargs="+", help="the clips' audio files (at least two)")
+    le.add_argument("--out", required=True, metavar="PRESET.json",
+                    help="preset to write; the training report goes beside it as PRESET.report.json")
+    le.add_argument("--name", help="preset name (default: the file's name)")
+    le.add_argument("--emotion", default="neutral", help="built-in preset to start from (default: neutral)")
+    le.add_argument("--viseme-set", default="arkit", help="viseme set to learn poses for (default: arkit)")
+    le.add_argument("--holdout", type=float, default=0.2, help="share of clips held out (default: 0.2)")
+    le.add_argument("--variance", type=float, default=0.99, help="share of variance the PCA keeps (0.99)")
+    le.add_argument("--capture-fps", type=float, default=60.0, help="frame rate of CSV timecodes (60)")
+    le.add_argument("--fps", type=float, default=30.0, help="frame rate the model is fitted at (30)")
+    le.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
     return ap
 
 
@@ -43,6 +59,8 @@ def main(argv: list[str] | None = None) -> int:
         print("viseme sets:", ", ".join(visemes.builtin_names()))
         print("emotions:   ", ", ".join(presets.builtin_names()))
         return 0
+    if args.command == "learn":
+        return _learn(args)
     from .align import AlignSettings
     from .pipeline import analyze
 
@@ -79,4 +97,44 @@ def main(argv: list[str] | None = None) -> int:
               f"{result.duration:.2f} s of audio in {time.perf_counter() - t0:.2f} s")
         for note in result.notes:
             print("note:", note)
+    return 0
+
+
+def _learn(args) -> int:
+    from . import learn
+
+    def progress(step, frac):
+        print(f"\r{step:>9} {100 * frac:5.1f} %", end="", file=sys.stderr, flush=True)
+
+    try:
+        if not (0.0 < args.holdout < 1.0):
+            raise LipSyncError("--holdout must be between 0 and 1")
+        if not (0.5 <= args.variance <= 1.0):
+            raise LipSyncError("--variance must be between 0.5 and 1")
+        clips = []
+        for k, path in enumerate(args.audio):
+            progress("align", k / len(args.audio))
+            clips.append(learn.load_clip(path, capture_fps=args.capture_fps, dictionary=args.dictionary))
+        name = args.name or Path(args.out).stem
+        result = learn.learn(clips, emotion=args.emotion, viseme_set=args.viseme_set, name=name,
+                             holdout=args.holdout, variance=args.variance, fps=args.fps, progress=progress)
+        preset_path, report_path = result.save(args.out)
+    except LipSyncError as exc:
+        print(f"\nerror: {exc}", file=sys.stderr)
+        return 1
+    r = result.report
+    print(file=sys.stderr)
+    print(f"{len(r['clips']['train'])} training clips, {len(r['clips']['heldout'])} held out; "
+          f"{r['pca']['components']} components keep {100 * r['pca']['variance_kept']:.1f} % of the variance; "
+          f"{r['fit']['iterations']} iterations ({r['fit']['stopped']}) in {r['fit']['seconds']:.1f} s")
+    for who in ("learned", "builtin"):
+        h, t = r[who]["heldout"], r[who]["train"]
+        print(f"  {who:8} RMSE train {t['rmse']:.4f}, held out {h['rmse']:.4f} "
+              f"(variance explained {h['variance_explained']:.3f})")
+    if r["better_than_builtin"]:
+        print(f"the learned preset beats the built-in {r['base_preset']!r} on the held-out clips")
+    else:
+        print(f"the learned preset does NOT beat the built-in {r['base_preset']!r} on the held-out clips; "
+              "keep using the built-in one (or add more clips)")
+    print(f"wrote {preset_path} and {report_path}")
     return 0

@@ -137,15 +137,30 @@ def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: dict) -> np
     return out
 
 
+def phoneme_weights(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
+                    vset: visemes.VisemeSet, preset: dict) -> np.ndarray:
+    """Equations 1-2: each phoneme's viseme weight from its pitch and intensity."""
+    phones = [p.phone for p in alignment.phones]
+    ranges = phone_ranges(phones, vset, preset)
+    return weights.phoneme_weights(phones, pitch, intensity, stats, ranges, preset["weights"]["other_source"])
+
+
+def rest_target(vset: visemes.VisemeSet, preset: dict) -> tuple[int | None, float]:
+    """The viseme silence shows and its weight (None, 0: silence is the basis)."""
+    rest = vset.rest
+    if not rest:
+        return None, 0.0
+    i = vset.index(rest)
+    return i, float(vset.ranges[i][1] * preset["weights"]["range_scale"]["silence"][1])
+
+
 def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
            vset: visemes.VisemeSet, preset: dict, model: str, fps: float
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weights per phoneme, frame times and viseme curves."""
     if model not in MODELS:
         raise LipSyncError(f"unknown coarticulation model {model!r}: use {' or '.join(MODELS)}")
-    phones = [p.phone for p in alignment.phones]
-    ranges = phone_ranges(phones, vset, preset)
-    w = weights.phoneme_weights(phones, pitch, intensity, stats, ranges, preset["weights"]["other_source"])
+    w = phoneme_weights(alignment, pitch, intensity, stats, vset, preset)
     times = frame_times(alignment.duration, fps)
     spans = [(p.phone, p.start, p.end) for p in alignment.phones]
     split = preset["rules"]["diphthong_split"]
@@ -157,9 +172,7 @@ def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats
         out = coarticulation.rules(events, times, n_v, preset)
     else:
         events = coarticulation.build_events(spans, w, vset, split)
-        rest = vset.rest
-        rest_i = vset.index(rest) if rest else None
-        rest_w = float(vset.ranges[rest_i][1] * preset["weights"]["range_scale"]["silence"][1]) if rest else 0.0
+        rest_i, rest_w = rest_target(vset, preset)
         out = coarticulation.dominance(events, times, n_v, preset, alignment.duration, rest_i, rest_w)
     out = coarticulation.smooth(out, fps, preset["smoothing"])
     out = coarticulation.enforce_closures(out, times, events, preset["closure"]["strength"])
@@ -167,16 +180,30 @@ def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats
     return w, times, out
 
 
+def viseme_set_for(preset: dict, viseme_set: str | None = None) -> visemes.VisemeSet:
+    """The viseme set to use: ``viseme_set`` (default: ``default``), unless
+    the preset was learned from animation, whose set and poses it carries."""
+    learned = preset.get("learned")
+    if learned is None:
+        return visemes.load(viseme_set or "default")
+    base = visemes.load(learned["viseme_set"])
+    if viseme_set is not None and visemes.load(viseme_set).name != base.name:
+        raise LipSyncError(f"preset {preset.get('name', '')!r} was learned with the {base.name!r} viseme set; "
+                           f"it cannot drive {viseme_set!r}")
+    return visemes.with_targets(base, learned["targets"])
+
+
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
-            viseme_set: str = "default", emotion: str | dict = "neutral",
+            viseme_set: str | None = None, emotion: str | dict = "neutral",
             coarticulation_model: str = "dominance", fps=30, dictionary: str | None = None,
             settings: AlignSettings | None = None,
             progress: Callable[[str, float], None] | None = None) -> Result:
     """Audio + transcript (or an imported alignment) -> viseme curves.
 
     ``emotion`` is a built-in preset name, a preset file path or a preset
-    dict; ``viseme_set`` a built-in set name or a file path.  ``progress``
+    dict; ``viseme_set`` a built-in set name or a file path (default:
+    ``default``, or the set a learned preset was trained with).  ``progress``
     is called with (step, fraction done).
     """
     def report(step, frac):
@@ -184,8 +211,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             progress(step, frac)
 
     fps = parse_fps(fps)
-    vset = visemes.load(viseme_set)
     preset = presets.resolve(dict(emotion), "preset") if isinstance(emotion, dict) else presets.load(emotion)
+    vset = viseme_set_for(preset, viseme_set)
     if coarticulation_model not in MODELS:
         raise LipSyncError(f"unknown coarticulation model {coarticulation_model!r}: use {' or '.join(MODELS)}")
     report("decode", 0.0)

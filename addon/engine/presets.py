@@ -76,7 +76,10 @@ def validate(p: dict, source: str = "preset") -> dict:
                 raise PresetError(source, f"{path}.{k}" if path else k,
                                   f"is not a preset field (expected one of: {', '.join(allowed)})")
 
-    no_extra(p, ("name", "description", "base", "weights", "rules", "dominance", "closure", "smoothing", "gain"), "")
+    no_extra(p, ("name", "description", "base", "weights", "rules", "dominance", "closure", "smoothing", "gain",
+                 "learned"), "")
+    if "learned" in p:
+        _validate_learned(p["learned"], source)
     w = section(p, "weights", "weights")
     no_extra(w, ("range_scale", "other_source", "pitch_range", "intensity_floor_db"), "weights")
     rs = section(w, "range_scale", "weights.range_scale")
@@ -140,6 +143,30 @@ def validate(p: dict, source: str = "preset") -> dict:
     if not isinstance(p.get("name", ""), str):
         raise PresetError(source, "name", "must be text")
     return p
+
+
+def _validate_learned(le, source: str) -> None:
+    """``learned``: what a preset trained from example animation adds: the
+    viseme set it was trained with and each viseme's learned pose, as a mix
+    of the training mesh's shape keys (or capture channels)."""
+    if not isinstance(le, dict):
+        raise PresetError(source, "learned", "must be an object")
+    for k in le:
+        if k not in ("viseme_set", "targets", "report"):
+            raise PresetError(source, f"learned.{k}", "is not a preset field (expected one of: viseme_set, "
+                                                      "targets, report)")
+    if not isinstance(le.get("viseme_set"), str):
+        raise PresetError(source, "learned.viseme_set", "must name the viseme set the preset was trained with")
+    targets = le.get("targets")
+    if not isinstance(targets, dict) or not targets:
+        raise PresetError(source, "learned.targets", "must map visemes to {shape key: weight}")
+    for v, mix in targets.items():
+        if not isinstance(mix, dict):
+            raise PresetError(source, f"learned.targets.{v}", "must map shape-key names to numbers")
+        for k, w in mix.items():
+            mix[k] = _num(source, f"learned.targets.{v}.{k}", w, -3.0, 3.0)
+    if "report" in le and not isinstance(le["report"], str):
+        raise PresetError(source, "learned.report", "must be the training report's file name")
 
 
 def merge(base: dict, over: dict) -> dict:

@@ -63,6 +63,17 @@ class VisemeSet:
         return self.shape_keys.get(viseme, {viseme: 1.0})
 
 
+def with_targets(vset: VisemeSet, targets: dict[str, dict[str, float]]) -> VisemeSet:
+    """The set with each viseme's shape-key mix replaced (a learned preset's
+    poses); visemes without a learned pose drive nothing."""
+    unknown = sorted(set(targets) - set(vset.visemes))
+    if unknown:
+        raise PresetError(vset.name, "learned.targets", f"names visemes not in the set: {', '.join(unknown)}")
+    mixes = {v: dict(targets.get(v, {})) for v in vset.visemes}
+    return VisemeSet(vset.name, vset.description, list(vset.visemes), vset.ranges.copy(), dict(vset.phonemes),
+                     mixes, dict(vset.aliases))
+
+
 def builtin_names() -> list[str]:
     return sorted(p.stem for p in DATA.glob("*.json"))
 
