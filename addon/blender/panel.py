@@ -184,6 +184,7 @@ class LIPSYNC_PT_emotion(_Panel, bpy.types.Panel):
         sub.active = st.reduce_keys
         sub.prop(st, "tolerance")
         layout.prop(st, "dictionary")
+        layout.operator("emotive_lipsync.learn_preset", icon="EXPERIMENTAL")
         layout.use_property_split = False
         layout.prop(st, "show_preset_values", icon="TRIA_DOWN" if st.show_preset_values else "TRIA_RIGHT",
                     emboss=False)
