@@ -5,8 +5,7 @@ line onto both headless, save a .blend and render a contact sheet.
 
 Ada speaks happily with the rule model, Kit neutrally with dominance
 functions, so the two show the presets' and the models' difference.  The
-add-on runs from this checkout; ``blender --command lipsync`` runs the same
-code (see the README).
+add-on runs from this checkout.
 """
 
 from __future__ import annotations
@@ -76,8 +75,12 @@ def main(argv):
     ada_strip["lipsync_text"] = kit_strip["lipsync_text"] = text.name
     scene.frame_start, scene.frame_end = 1, max(ada_strip.frame_final_end, kit_strip.frame_final_end)
     blend = os.path.join(out_dir, "sample.blend")
-    status = command.execute(["--strip", "Ada_hello", "--emotion", "happy", "--coarticulation", "rules"])
-    status |= command.execute(["--strip", "Kit_hello", "--emotion", "neutral", "--output", blend])
+    # Ada through the operator the Generate button runs, Kit through the
+    # batch command (`blender -b ... --command lipsync`), which also saves.
+    if bpy.ops.emotive_lipsync.generate(strip="Ada_hello", mesh="Ada", emotion="happy",
+                                        coarticulation="rules") != {"FINISHED"}:
+        return 1
+    status = command.execute(["--strip", "Kit_hello", "--emotion", "neutral", "--output", blend])
     if status:
         return status
     sheet = os.path.join(out_dir, "sample_contact_sheet.png")
