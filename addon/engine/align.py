@@ -353,6 +353,16 @@ def _run_side(side: str, pcms: list[bytes], speech: list[float], prons: list[lis
             if used < size or size == hi - lo - 1:
                 break
             guess *= 2  # every candidate was used: the window was too small
+        keep = _trusted(kind, payload, masks[k], side)
+        if keep < used:
+            # Speech swallowed between two words: the words beyond it are
+            # misplaced.  Keep the ones before it and leave the rest (and the
+            # audio after them) to the middle.
+            if keep:
+                payload = payload[:keep] if side == "head" else payload[used - keep:]
+                a, b = (lo, lo + keep) if side == "head" else (hi - keep, hi)
+                out.append((k, first + a, first + b, kind, payload))
+            return out
         if used < hi - lo - 1:
             kind, used, payload = _cover_speech(decoder, pcms[k], masks[k], side, kind, used, payload,
                                                 lo, hi, first)
@@ -362,8 +372,40 @@ def _run_side(side: str, pcms: list[bytes], speech: list[float], prons: list[lis
     return out
 
 
+def _trusted(kind, payload, mask: np.ndarray, side: str, swallowed: float = 1.0, lead: bool = False) -> int:
+    """How many words, counted from the side's own end, come before the first
+    gap between words that holds ``swallowed`` s or more of continuous speech.
+    A pause, even a long one at the end of a verse line, is not a second of
+    unbroken speech; a word pass that calls such a stretch silence has
+    skipped words there, and the words after it are misplaced.
+
+    With ``lead``, the stretch between the side's own end of the audio and
+    its first word is checked too (used in the middle, whose ends are the
+    edges of words already placed; at the clip's ends breath and noise pass
+    for speech too often)."""
+    frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
+    n = len(frames)
+    limit = int(round(swallowed / FRAME))
+    before = mask[:frames[0][0]] if side == "head" else mask[frames[-1][1]:]
+    if lead and _longest_run(before) >= limit:
+        return 0
+    order = range(n - 1) if side == "head" else range(n - 2, -1, -1)
+    for count, i in enumerate(order, start=1):
+        if _longest_run(mask[frames[i][1]:frames[i + 1][0]]) >= limit:
+            return count
+    return n
+
+
+def _longest_run(mask: np.ndarray) -> int:
+    """Length of the longest run of True."""
+    if not mask.any():
+        return 0
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return int((edges[1::2] - edges[0::2]).max())
+
+
 def _run_middle(audio: Audio, t0: float, t1: float, prons: list[list[str]], first: int,
-                settings: AlignSettings):
+                settings: AlignSettings, mask: np.ndarray | None = None):
     """Align the words ``first .. first+len(prons)`` to the audio t0..t1.
 
     Forced alignment first.  If it fails, the grammar search takes as many
@@ -386,6 +428,13 @@ def _run_middle(audio: Audio, t0: float, t1: float, prons: list[list[str]], firs
         kind, used, payload = _decode(decoder, audio.pcm16(a, b), f"mid_{mode}", window, mode)
         if kind == "failed" or used == 0:
             continue
+        if mask is not None:
+            keep = _trusted(kind, payload, mask[int(round(a / FRAME)):int(round(b / FRAME))], mode,
+                            lead=mode == "head")
+            if keep == 0:
+                continue
+            payload = payload[:keep] if mode == "head" else payload[used - keep:]
+            used = keep
         frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
         if mode == "head":
             out.append((first + lo, first + lo + used, a, b, kind, payload))
@@ -560,8 +609,16 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
             lo, walked = wb, k + 1
         c_lo += walked
     if lo < hi:
+        # The middle takes the words left between the two sides and the audio
+        # left between them: a side may have stopped short of its chunk's end
+        # (the grammar search ended early and forcing more words failed), and
+        # the speech it left belongs to the next unplaced words.
         t0, t1 = chunks[c_lo].start, chunks[c_hi - 1].end
-        for wa, wb, a, b, kind, payload in _run_middle(audio, t0, t1, prons[lo:hi], lo, settings):
+        if lo > 0 and result[lo - 1]:
+            t0 = min(t0, result[lo - 1][-1][2])
+        if hi < n and result[hi]:
+            t1 = max(t1, result[hi][0][1])
+        for wa, wb, a, b, kind, payload in _run_middle(audio, t0, t1, prons[lo:hi], lo, settings, mask):
             place(kind, payload, wa, wb, a, b)
     if progress:
         progress(1.0)
