@@ -18,12 +18,11 @@ import os
 import sys
 import tempfile
 import time
-import wave
 
 import bpy
 import numpy as np
 
-from common import DATA, ROOT
+from common import DATA, ROOT, write_wav
 
 sys.path.insert(0, str(ROOT / "sample_rigs"))
 import build_rigs  # noqa: E402
@@ -36,13 +35,6 @@ OCULUS = {"viseme_sil": {}, "viseme_PP": {"close": 1.0}, "viseme_FF": {"tuck_low
           "viseme_E": {"open": 0.5, "wide": 0.45}, "viseme_ih": {"open": 0.18, "wide": 0.65},
           "viseme_oh": {"open": 0.55, "round": 0.7}, "viseme_ou": {"open": 0.12, "round": 1.0}}
 
-
-def write_wav(path, samples, rate=16000):
-    with wave.open(str(path), "wb") as w:
-        w.setnchannels(1)
-        w.setsampwidth(2)
-        w.setframerate(rate)
-        w.writeframes((np.clip(samples, -1, 1) * 32767).astype("<i2").tobytes())
 
 
 def the_line(tmp):

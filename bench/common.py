@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import os
 import sys
+import wave
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = Path(os.environ.get("LIPSYNC_DATA", ROOT.parent / "shared" / "data"))
@@ -51,3 +54,12 @@ def reference_phones() -> list[tuple[str, Path, str, Path, str]]:
         ("cold_corpus", d / "mfa/cold_corpus.wav", (d / "mfa/cold_corpus.lab").read_text(),
          d / "mfa/cold_corpus.TextGrid", "arpabet"),
     ]
+
+
+def write_wav(path, samples, rate=16000):
+    """16-bit mono WAV."""
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes((np.clip(samples, -1, 1) * 32767).astype("<i2").tobytes())

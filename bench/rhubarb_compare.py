@@ -20,12 +20,10 @@ import sys
 import tarfile
 import tempfile
 import time
-import wave
 from pathlib import Path
 
-import numpy as np
 
-from common import ROOT, transcript_clips
+from common import ROOT, transcript_clips, write_wav
 from addon.engine import audio as audio_mod
 
 TOOLS = ROOT / ".tools"
@@ -44,13 +42,6 @@ def ensure_rhubarb() -> Path:
     RHUBARB.chmod(0o755)
     return RHUBARB
 
-
-def write_wav(path, samples, rate=16000):
-    with wave.open(str(path), "wb") as w:
-        w.setnchannels(1)
-        w.setsampwidth(2)
-        w.setframerate(rate)
-        w.writeframes((np.clip(samples, -1, 1) * 32767).astype("<i2").tobytes())
 
 
 def timed(cmd) -> float:

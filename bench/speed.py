@@ -13,29 +13,20 @@ when absent).
 
 from __future__ import annotations
 
-import resource
 import subprocess
 import sys
 import tempfile
 import time
-import wave
 
 import numpy as np
 
-from common import DATA, ROOT, need_data
+from common import DATA, ROOT, need_data, write_wav
 from addon.engine import audio as audio_mod
 from addon.engine import presets, visemes
 from addon.engine.pipeline import analyze, curves
 from addon.engine.align import AlignedPhone, Alignment
 from addon.engine.prosody import ClipStats
 
-
-def write_wav(path, samples, rate=16000):
-    with wave.open(str(path), "wb") as w:
-        w.setnchannels(1)
-        w.setsampwidth(2)
-        w.setframerate(rate)
-        w.writeframes((np.clip(samples, -1, 1) * 32767).astype("<i2").tobytes())
 
 
 def timed_analyze(path, text, repeat=3):

@@ -41,7 +41,6 @@ def test_lips_close_on_every_bilabial(model, rate, fps):
             k = np.flatnonzero((times >= p.start) & (times <= p.end))
             if len(k) == 0:
                 k = [int(np.argmin(np.abs(times - (p.start + p.end) / 2)))]
-            row = c[k].max(axis=0) if len(k) else None
             assert c[k, mbp].max() >= 0.85, (p, c[k, mbp])
             # ... and the mouth is not also open there.
             assert c[k].max(axis=0)[v.index("AHH")] < 0.4

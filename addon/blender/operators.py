@@ -12,7 +12,7 @@ import os
 import traceback
 
 import bpy
-from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import FloatProperty, IntProperty, StringProperty
 
 from ..engine import mapping as mapping_mod
 from ..engine import presets, visemes
@@ -286,8 +286,8 @@ class LIPSYNC_OT_mapping_remove(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LIPSYNC_OT_use_sidecar_text(bpy.types.Operator):
-    """Load the .txt beside the audio file into the transcript field"""
+class LIPSYNC_OT_load_transcript(bpy.types.Operator):
+    """Load a transcript .txt file into a new text block and use it"""
 
     bl_idname = "emotive_lipsync.load_transcript"
     bl_label = "Load Transcript File"
@@ -315,4 +315,4 @@ class LIPSYNC_OT_use_sidecar_text(bpy.types.Operator):
 
 
 classes = (LIPSYNC_OT_generate, LIPSYNC_OT_generate_all, LIPSYNC_OT_clear, LIPSYNC_OT_auto_map,
-           LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_use_sidecar_text)
+           LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_load_transcript)

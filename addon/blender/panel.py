@@ -12,7 +12,7 @@ from ..engine import visemes
 from ..engine.errors import LipSyncError
 from . import compat, keying, sources
 from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
-                        LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_use_sidecar_text)
+                        LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_load_transcript)
 from .preset_ui import LIPSYNC_MT_emotion_presets, LIPSYNC_OT_preset_add
 
 
@@ -23,8 +23,8 @@ def _face(context):
 
 
 def _strips_prop():
-    return "strips_all" if hasattr(bpy.types.SequenceEditor, "bl_rna") and \
-        "strips_all" in bpy.types.SequenceEditor.bl_rna.properties else "sequences_all"
+    """The sequence editor's collection of every strip (renamed in 4.4)."""
+    return "strips_all" if "strips_all" in bpy.types.SequenceEditor.bl_rna.properties else "sequences_all"
 
 
 def problems(context) -> list[str]:
@@ -119,7 +119,7 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         col.prop(st, "text_block")
         if st.text_block is None:
             col.prop(st, "text", text="Text")
-            col.operator(LIPSYNC_OT_use_sidecar_text.bl_idname, icon="FILE_TEXT", text="Load .txt")
+            col.operator(LIPSYNC_OT_load_transcript.bl_idname, icon="FILE_TEXT", text="Load .txt")
 
         layout.prop(st, "target")
 

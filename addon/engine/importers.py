@@ -19,7 +19,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import re
 from pathlib import Path
 
@@ -183,7 +182,7 @@ def read_rhubarb(path) -> Alignment:
     if text.lstrip().startswith("{"):
         try:
             doc = json.loads(text)
-            for k, c in enumerate(doc["mouthCues"]):
+            for c in doc["mouthCues"]:
                 cues.append((float(c["start"]), float(c["end"]), str(c["value"])))
             duration = float(doc.get("metadata", {}).get("duration") or (cues[-1][1] if cues else 0.0))
         except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
