@@ -4,6 +4,7 @@ to 16 kHz mono, the rate of the acoustic model."""
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 
@@ -46,19 +47,19 @@ def _fast_length(n: int) -> int:
     return best
 
 
-def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.ndarray:
-    """Band-limited resampling by FFT (the spectrum is cut at the new Nyquist
-    frequency).  Zero padding to a fast length avoids slow prime-length FFTs
-    and wrap-around at the ends."""
-    samples = np.asarray(samples, dtype=np.float64)
-    if int(round(rate)) == target:
-        return samples.astype(np.float32)
+def _resample_whole(samples: np.ndarray, rate: float, target: int) -> np.ndarray:
     n = len(samples)
-    if n == 0:
-        return np.zeros(0, np.float32)
     n_out = int(round(n * target / rate))
-    pad = _fast_length(n + int(rate // 10))
-    pad_out = int(round(pad * target / rate))
+    if float(rate) == int(rate):
+        # Both padded lengths whole multiples of the rates' ratio: the new
+        # grid is exactly the old one rescaled, with no drift along the clip.
+        g = math.gcd(int(rate), target)
+        down, up = int(rate) // g, target // g
+        m = _fast_length(-(-(n + int(rate // 10)) // down))
+        pad, pad_out = down * m, up * m
+    else:
+        pad = _fast_length(n + int(rate // 10))
+        pad_out = int(round(pad * target / rate))
     spec = np.fft.rfft(samples, pad)
     keep = pad_out // 2 + 1
     if keep <= len(spec):
@@ -66,7 +67,43 @@ def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.n
     else:
         spec = np.concatenate([spec, np.zeros(keep - len(spec), spec.dtype)])
     out = np.fft.irfft(spec, pad_out) * (pad_out / pad)
-    return out[:n_out].astype(np.float32)
+    return out[:n_out]
+
+
+#: Blocks for long signals: FFTs of ~2^17 samples stay in cache, and the
+#: margins (discarded) keep each block's edges away from the output.
+_BLOCK = 1 << 17
+_MARGIN = 4096
+
+
+def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.ndarray:
+    """Band-limited resampling by FFT (the spectrum is cut at the new Nyquist
+    frequency).  Zero padding to a fast length avoids slow prime-length FFTs
+    and wrap-around at the ends.  Long signals at an integer rate go block by
+    block, each block cut on a sample both rates share, with overlapping
+    margins thrown away: the same result, several times faster."""
+    samples = np.asarray(samples, dtype=np.float64)
+    if int(round(rate)) == target:
+        return samples.astype(np.float32)
+    n = len(samples)
+    if n == 0:
+        return np.zeros(0, np.float32)
+    if n <= 2 * _BLOCK or float(rate) != int(rate):
+        return _resample_whole(samples, rate, target).astype(np.float32)
+    g = math.gcd(int(rate), target)
+    down, up = int(rate) // g, target // g        # 441 input samples -> 160 output samples
+    step = down * max(1, _BLOCK // down)
+    margin = down * -(-_MARGIN // down)
+    n_out = int(round(n * target / rate))
+    out = np.empty(n_out, np.float32)
+    for start in range(0, n, step):
+        a, b = max(0, start - margin), min(n, start + step + margin)
+        y = _resample_whole(samples[a:b], rate, target)
+        o0 = start // down * up
+        take = min(step // down * up, n_out - o0)
+        off = (start - a) // down * up
+        out[o0:o0 + take] = y[off:off + take]
+    return out
 
 
 def from_samples(samples: np.ndarray, rate: float) -> Audio:

@@ -181,11 +181,14 @@ class _Model:
 
 
 def _solve_poses(blends, zs, ridge, prior):
-    """Poses A minimising sum ||C A - Z||^2 + ridge ||A - prior||^2."""
+    """Poses A minimising sum ||C A - Z||^2 + lam ||A - prior||^2, with lam
+    ``ridge`` times the mean of diag(C^T C): a viseme the clips barely show
+    stays near the viseme set's own pose instead of fitting the noise."""
     CtC = sum(C.T @ C for C in blends)
     CtZ = sum(C.T @ Z for C, Z in zip(blends, zs))
     n = CtC.shape[0]
-    return np.linalg.solve(CtC + ridge * np.eye(n), CtZ + ridge * prior)
+    lam = ridge * max(float(np.trace(CtC)) / n, 1e-12)
+    return np.linalg.solve(CtC + lam * np.eye(n), CtZ + lam * prior)
 
 
 def _params_matrix(preset: dict) -> np.ndarray:
@@ -360,6 +363,8 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_
             out["dominance"]["classes"][c][pn] = round(float(Pm[k, p]), 5)
     out["gain"] = 1.0
     M = A @ P.T
+    clipped = int(np.sum(np.abs(M) > 3.0))
+    M = np.clip(M, -3.0, 3.0)   # the range a preset allows; reported below
     targets = {}
     for i, v in enumerate(vset.visemes):
         mix = {ch: round(float(M[i, j]), 4) for j, ch in enumerate(channels) if abs(M[i, j]) >= 1e-3}
@@ -382,6 +387,7 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_
         "channels": channels,
         "clips": {"train": [c.name for c in train], "heldout": [c.name for c in hold]},
         "pca": {"components": K, "variance_kept": float(energy[K - 1]), "target": variance},
+        "poses_clipped": clipped,
         "fit": {"free_parameters": len(free) + A.size, "iterations": len(history) - 1, "best_iteration": best_it,
                 "stopped": "held-out error stopped falling" if since_best >= patience else
                 ("no further improvement" if len(history) - 1 < max_iter else "iteration limit"),

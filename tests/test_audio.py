@@ -1,0 +1,38 @@
+"""Resampling to the aligner's 16 kHz."""
+
+import numpy as np
+import pytest
+
+from addon.engine import audio
+
+
+@pytest.mark.parametrize("rate", [44100, 48000, 22050, 8000])
+def test_resampled_sine_keeps_its_frequency_and_level(rate):
+    t = np.arange(int(rate * 20.3)) / rate          # long enough to go block by block
+    x = 0.5 * np.sin(2 * np.pi * 440.0 * t)
+    y = audio.resample(x, rate)
+    assert len(y) == round(len(x) * 16000 / rate)
+    t_out = np.arange(len(y)) / 16000
+    inner = slice(1600, len(y) - 1600)               # the clip's ends ring a little
+    assert np.abs(y[inner] - 0.5 * np.sin(2 * np.pi * 440.0 * t_out[inner])).max() < 2e-3
+
+
+def test_blocks_match_the_whole_signal_transform():
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=44100 * 12) * 0.1
+    blocked = audio.resample(x, 44100)
+    whole = audio._resample_whole(x, 44100, 16000)
+    assert np.sqrt(np.mean((blocked - whole) ** 2)) < 0.01 * np.sqrt(np.mean(whole ** 2))   # -40 dB
+    assert np.abs(blocked - whole).max() < 0.01
+
+
+def test_speech_band_survives_and_aliases_do_not():
+    rate = 44100
+    t = np.arange(rate * 8) / rate
+    x = np.sin(2 * np.pi * 1000 * t) + np.sin(2 * np.pi * 12000 * t)   # 12 kHz is above the new Nyquist
+    y = audio.resample(x, rate)
+    spec = np.abs(np.fft.rfft(y[16000:-16000]))
+    freqs = np.fft.rfftfreq(len(y) - 32000, 1 / 16000)
+    assert freqs[np.argmax(spec)] == pytest.approx(1000, abs=2)
+    alias = spec[np.abs(freqs - 4000) < 20].max()                       # 12 kHz would fold to 4 kHz
+    assert alias < 1e-2 * spec.max()
