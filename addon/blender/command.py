@@ -145,13 +145,13 @@ def execute(argv: list[str]) -> int:
     if done and (args.save or args.output):
         if args.output:
             bpy.ops.wm.save_as_mainfile(filepath=bpy.path.abspath(args.output), copy=False)
+            print(f"lipsync: saved {bpy.data.filepath}")
         elif bpy.data.filepath:
             bpy.ops.wm.save_mainfile()
+            print(f"lipsync: saved {bpy.data.filepath}")
         else:
             problems.append("--save: the scene has never been saved; use --output FILE.blend")
             print(f"lipsync: {problems[-1]}", file=sys.stderr)
-        if not problems or args.output or bpy.data.filepath:
-            print(f"lipsync: saved {bpy.data.filepath}")
     elif done:
         print("lipsync: nothing saved (add --save or --output FILE.blend)")
     print(f"lipsync: {len(done)} of {len(jobs)} lip-synced, {len(problems)} problems")
