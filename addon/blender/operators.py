@@ -223,9 +223,10 @@ Preston Blair, Rhubarb and ARKit conventions)"""
             names = run.check_mesh(obj)
             st = obj.emotive_lipsync
             if self.viseme_set == "guess":
-                best = max(visemes.builtin_names(),
-                           key=lambda n: _coverage(visemes.load(n), names))
-                st.viseme_set = best
+                found = mapping_mod.best_set([visemes.load(n) for n in visemes.builtin_names()], names,
+                                             prefer=st.viseme_set)
+                if found is not None:
+                    st.viseme_set = found[0].name
             elif self.viseme_set:
                 if self.viseme_set not in visemes.builtin_names():
                     raise LipSyncError(f"{self.viseme_set!r} is not a built-in viseme set: "
@@ -244,10 +245,6 @@ Preston Blair, Rhubarb and ARKit conventions)"""
         self.report({"WARNING"} if missing else {"INFO"},
                     msg + (f"; unmapped: {', '.join(missing)}" if missing else ""))
         return {"FINISHED"}
-
-
-def _coverage(vset, names) -> int:
-    return len(mapping_mod.auto_map(vset, names))
 
 
 class LIPSYNC_OT_mapping_add(bpy.types.Operator):
