@@ -146,3 +146,37 @@ def test_imported_alignment_skips_the_aligner(tmp_path):
 def test_bad_fps():
     with pytest.raises(LipSyncError, match="frame rate"):
         analyze(FIXTURES / "bob_map.wav", "Bob bought a map", fps="fast")
+
+
+def _two_lines(tmp_path):
+    """The shipped line, a pause, then the bob/map fixture: one clip of ~9.5 s."""
+    a = audio_mod.load(SAMPLE / "hello.wav").samples
+    b = audio_mod.load(FIXTURES / "bob_map.wav").samples
+    write_wav(tmp_path / "two.wav", np.concatenate([a, np.zeros(8000, np.float32), b]))
+    return tmp_path / "two.wav", (SAMPLE / "hello.txt").read_text() + " " + (FIXTURES / "bob_map.txt").read_text()
+
+
+def test_long_clip_aligned_as_two_halves_matches_one_pass(tmp_path):
+    path, text = _two_lines(tmp_path)
+    one = align_file(path, text, settings=AlignSettings(split_above=1e9))
+    halves = align_file(path, text, settings=AlignSettings(split_above=1.0, workers=2))
+    assert [w.text for w in halves.words] == [w.text for w in one.words]
+    assert halves.n_estimated == 0 and one.n_estimated == 0
+    starts = np.array([p.start for p in halves.phones]) - np.array([p.start for p in one.phones])
+    assert np.median(np.abs(starts)) <= 0.011 and np.mean(np.abs(starts) <= 0.04) >= 0.9
+    # The last four words are bob/map, after the pause.
+    assert halves.words[-4].start > audio_mod.load(SAMPLE / "hello.wav").duration
+
+
+def test_chunked_fallback_when_the_one_pass_fails(tmp_path, monkeypatch):
+    from addon.engine import align as align_mod
+
+    path, text = _two_lines(tmp_path)
+    one = align_file(path, text)
+    monkeypatch.setattr(align_mod, "_whole", lambda *a, **k: ("failed", 0, "forced for the test"))
+    al = align_file(path, text, settings=AlignSettings(split_above=1e9, max_chunk=3.0))
+    assert [w.text for w in al.words] == [w.text for w in one.words]
+    assert al.n_estimated == 0
+    err = np.abs(np.array([w.start for w in al.words]) - np.array([w.start for w in one.words]))
+    assert np.median(err) <= 0.03
+

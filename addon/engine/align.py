@@ -1,28 +1,35 @@
 """Forced alignment of a transcript to speech with pocketsphinx, offline.
 
-pocketsphinx aligns in two passes (words, then phones).  Used naively on a
-whole recording it fails in three known ways: the last word can be dropped,
-long clips end with "Final result does not match the grammar", and the phone
-pass gives up with "Failed to set up sub-word alignment" when a clip holds a
-long pause.  This module therefore:
+pocketsphinx aligns in two passes (words, then phones).  With its default
+beams it fails on real recordings in three known ways: the last word can be
+dropped, long clips end with "Final result does not match the grammar", and
+the phone pass gives up with "Failed to set up sub-word alignment" on clips
+with long pauses or quiet, fast speech.  All three come from pruning: the
+right path through the grammar is cut off where the acoustic model fits the
+speech poorly.  This module therefore:
 
-1. finds the pauses in the audio from its short-time energy;
-2. cuts the audio at pauses into chunks of at most :attr:`AlignSettings.max_chunk`
-   seconds and decides which words belong to each chunk by dynamic
-   programming: every word's expected length (from its phones) should fit the
-   speech time of its chunk, and punctuation in the script should fall on the
-   cuts;
-3. aligns the chunks, in parallel processes where there are several cores,
-   with wide beams, no language model and a dictionary holding only the
-   chunk's words (each under a unique token, so the result can be checked
-   word by word against the transcript);
-4. retries a chunk that fails by joining it to its neighbour, and where a
-   stretch still cannot be aligned, places its phonemes by the documented
-   fallback: the words are spread over the stretch's speech (pauses skipped)
-   in proportion to their expected length, each phone taking a share of its
-   word by its typical duration.  Such words and phonemes carry
-   ``estimated = True``.  When only the phone pass fails, the word times of
-   the first pass are kept and only the phones inside each word are estimated.
+1. searches with beams far wider than the defaults (1e-200: almost no
+   pruning).  A forced alignment holds only the transcript's own words, so
+   the search stays small, and it then succeeds on whole clips of a minute;
+2. aligns a short clip in one forced pass.  A long one is cut in two at the
+   pause nearest its middle and the halves are aligned at once in two
+   processes: a grammar lets the acoustic model choose how many words the
+   first half holds (a prefix of the transcript) and how many the second
+   holds (a suffix).  Words left between the two are force-aligned to the
+   audio left between them; if the halves claim the same word, the whole clip
+   is force-aligned instead;
+3. checks every pass word by word against the transcript (each word is a
+   unique token in a dictionary holding only the clip's words);
+4. where forced alignment still fails (audio that does not hold the
+   transcript, say), falls back to smaller pieces: the audio is cut at its
+   pauses into chunks, words are assigned to chunks by the same prefix and
+   suffix grammars, and a stretch that still cannot be aligned has its
+   phonemes placed by estimate: the words are spread over the stretch's
+   speech (pauses skipped) in proportion to their expected length, each
+   phone taking a share of its word by its typical duration.  Such words and
+   phonemes carry ``estimated = True``.  When only the phone pass fails, the
+   word times of the first pass are kept and only the phones inside each
+   word are estimated.
 """
 
 from __future__ import annotations
@@ -57,13 +64,14 @@ def typical_duration(phone: str) -> float:
 class AlignSettings:
     """Knobs of the aligner.  The defaults were measured on real speech."""
 
-    max_chunk: float = 12.0      # longest stretch of audio aligned at once, s
+    split_above: float = 30.0    # clips longer than this are aligned as two halves at once, s
+    max_chunk: float = 12.0      # longest chunk of the fallback, s
     min_pause: float = 0.30      # shortest silence the audio may be cut at, s
     margin: float = 0.12         # silence kept around each chunk's speech, s
-    beam: float = 1e-80
-    pbeam: float = 1e-80
-    wbeam: float = 1e-60
-    workers: int = 0             # processes; 0 = one per core, at most 4
+    beam: float = 1e-200
+    pbeam: float = 1e-200
+    wbeam: float = 1e-200
+    workers: int = 0             # processes; 0 = one per core
 
 
 @dataclass
@@ -209,7 +217,7 @@ def plan_chunks(mask: np.ndarray, settings: AlignSettings, duration: float) -> l
 # ---------------------------------------------------------------------------
 # pocketsphinx
 
-def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings):
+def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, **extra):
     """A decoder whose dictionary holds only the given words, as tokens w<i>."""
     import pocketsphinx
 
@@ -220,7 +228,7 @@ def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings
     try:
         return pocketsphinx.Decoder(
             lm=None, dict=path, bestpath=False, samprate=16000, loglevel="FATAL",
-            beam=settings.beam, pbeam=settings.pbeam, wbeam=settings.wbeam)
+            beam=settings.beam, pbeam=settings.pbeam, wbeam=settings.wbeam, **extra)
     finally:
         os.unlink(path)
 
@@ -495,7 +503,7 @@ def _speech_spans(mask: np.ndarray, start: float, end: float) -> list[tuple[floa
 def _pool(settings: AlignSettings):
     import multiprocessing
 
-    n = settings.workers or min(4, os.cpu_count() or 1)
+    n = settings.workers or os.cpu_count() or 1
     # fork shares the loaded modules and costs nothing to start; where it is
     # not available (Windows) or unsafe (macOS), everything runs in-process.
     if n < 2 or "fork" not in multiprocessing.get_all_start_methods() or sys.platform == "darwin":
@@ -518,6 +526,13 @@ class _Inline:
 
     def shutdown(self):
         pass
+
+
+def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings):
+    """Forced alignment of words ``first..`` to the audio t0..t1 in one pass."""
+    decoder = _decoder(prons, first, settings)
+    tokens = [f"w{first + i}" for i in range(len(prons))]
+    return _decode(decoder, audio.pcm16(t0, t1), "all", tokens, "all")
 
 
 def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequence[float] | None = None,
@@ -546,10 +561,6 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         raise AudioError(
             f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
             "check that the right sound is selected and that it is not muted")
-    chunks = plan_chunks(mask, settings, audio.duration)
-    pcms = [audio.pcm16(c.start, c.end) for c in chunks]
-    speech = [c.speech for c in chunks]
-    masks = [mask[int(round(c.start / FRAME)): int(round(c.end / FRAME))] for c in chunks]
     result: list[list[tuple[str, float, float]] | None] = [None] * n
     est = [False] * n
     notes: list[str] = []
@@ -558,6 +569,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         if kind == "phones":
             for k, frames in enumerate(payload):
                 result[wa + k] = [(p, t0 + a * FRAME, t0 + b * FRAME) for p, a, b in frames]
+                est[wa + k] = False
         elif kind == "words":
             for k, (a, b) in enumerate(payload):
                 result[wa + k] = _estimate([prons[wa + k]], [(t0 + a * FRAME, t0 + b * FRAME)])[0]
@@ -571,6 +583,100 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
             notes.append(f"{t0:.2f}-{t1:.2f} s: could not be aligned ({payload}); "
                          f"{len(todo)} word(s) placed by estimate")
 
+    done = False
+    pool = _pool(settings) if audio.duration > settings.split_above else None
+    if pool is not None:
+        done = _align_halves(audio, prons, mask, settings, pool, place, result)
+    if not done:
+        kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings)
+        if kind != "failed":
+            place(kind, payload, 0, n, 0.0, audio.duration)
+            done = True
+    if not done:
+        notes.clear()
+        _align_chunked(audio, prons, mask, settings, place, result, progress)
+    if progress:
+        progress(1.0)
+
+    words: list[AlignedWord] = []
+    phones: list[AlignedPhone] = []
+    for wi in range(n):
+        ph = _clean(result[wi])
+        words.append(AlignedWord(texts[wi], ph[0][1], ph[-1][2], prons[wi], sources[wi], est[wi]))
+        for p, a, b in ph:
+            phones.append(AlignedPhone(p, a, b, wi, est[wi]))
+    return Alignment(words, phones, audio.duration, notes)
+
+
+def _split_words(audio: Audio, prons: list[list[str]], settings: AlignSettings) -> tuple[int, float] | None:
+    """Where to cut a long clip in two, and how many words go before the cut.
+
+    A quick forced word pass over the whole clip (scoring every second frame
+    only) finds the words; the cut goes in the middle of the pause between
+    two words nearest the middle of the speech.  Returns (words before the
+    cut, cut time) or None if the pass fails."""
+    decoder = _decoder(prons, 0, settings, ds=2)
+    tokens = [f"w{i}" for i in range(len(prons))]
+    try:
+        decoder.set_align_text(" ".join(tokens))
+        decoder.start_utt()
+        decoder.process_raw(audio.pcm16(), full_utt=True)
+        decoder.end_utt()
+        segs = [(sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if sg.word.startswith("w")]
+    except RuntimeError:
+        return None
+    if len(segs) != len(prons) or len(segs) < 4:
+        return None
+    lo, hi = segs[0][0], segs[-1][1]
+    mid = (lo + hi) / 2
+    quarter = (hi - lo) / 4
+    best = None
+    for i in range(1, len(segs)):
+        gap = segs[i][0] - segs[i - 1][1]
+        centre = (segs[i][0] + segs[i - 1][1]) / 2
+        if abs(centre - mid) > quarter:
+            continue
+        # The widest pause near the middle; ties go to the one nearer it.
+        score = (min(gap, 30), -abs(centre - mid))
+        if best is None or score > best[0]:
+            best = (score, i, centre)
+    if best is None:
+        return None
+    return best[1], best[2] * FRAME
+
+
+def _align_halves(audio, prons, mask, settings, pool, place, result) -> bool:
+    """A long clip: find where to cut it in two (see :func:`_split_words`),
+    then force-align both halves with their own words at once.  Returns
+    False, having placed nothing, if any pass fails."""
+    n = len(prons)
+    split = _split_words(audio, prons, settings)
+    if split is None:
+        pool.shutdown()
+        return False
+    k, cut = split
+    try:
+        futs = [pool.submit(_whole, audio, prons[:k], 0, 0.0, cut, settings),
+                pool.submit(_whole, audio, prons[k:], k, cut, audio.duration, settings)]
+        head, tail = futs[0].result(), futs[1].result()
+    finally:
+        pool.shutdown()
+    if head[0] == "failed" or tail[0] == "failed":
+        return False
+    place(head[0], head[2], 0, k, 0.0, cut)
+    place(tail[0], tail[2], k, n, cut, audio.duration)
+    return True
+
+
+def _align_chunked(audio, prons, mask, settings, place, result, progress) -> None:
+    """The fallback when forced alignment of the whole clip fails: chunks cut
+    at pauses, walked from both ends with prefix and suffix grammars, the
+    middle force-aligned or estimated."""
+    n = len(prons)
+    chunks = plan_chunks(mask, settings, audio.duration)
+    pcms = [audio.pcm16(c.start, c.end) for c in chunks]
+    speech = [c.speech for c in chunks]
+    masks = [mask[int(round(c.start / FRAME)): int(round(c.end / FRAME))] for c in chunks]
     # Chunks before the middle one are walked forward from the first word,
     # chunks after it backward from the last, in two processes at once; the
     # middle chunk takes the words left between them.
@@ -620,17 +726,6 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
             t1 = max(t1, result[hi][0][1])
         for wa, wb, a, b, kind, payload in _run_middle(audio, t0, t1, prons[lo:hi], lo, settings, mask):
             place(kind, payload, wa, wb, a, b)
-    if progress:
-        progress(1.0)
-
-    words: list[AlignedWord] = []
-    phones: list[AlignedPhone] = []
-    for wi in range(n):
-        ph = _clean(result[wi])
-        words.append(AlignedWord(texts[wi], ph[0][1], ph[-1][2], prons[wi], sources[wi], est[wi]))
-        for p, a, b in ph:
-            phones.append(AlignedPhone(p, a, b, wi, est[wi]))
-    return Alignment(words, phones, audio.duration, notes)
 
 
 def _clean(ph: list[tuple[str, float, float]]) -> list[tuple[str, float, float]]:
