@@ -71,6 +71,10 @@ class AlignSettings:
     beam: float = 1e-200
     pbeam: float = 1e-200
     wbeam: float = 1e-200
+    # Chance of a pause between two words.  pocketsphinx's default (0.005)
+    # suits dictation decoded with a language model; in dialogue, pauses,
+    # breaths and hesitations between words are common.
+    silprob: float = 0.1
     workers: int = 0             # processes; 0 = one per core
 
 
@@ -228,7 +232,7 @@ def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings
     try:
         return pocketsphinx.Decoder(
             lm=None, dict=path, bestpath=False, samprate=16000, loglevel="FATAL",
-            beam=settings.beam, pbeam=settings.pbeam, wbeam=settings.wbeam, **extra)
+            beam=settings.beam, pbeam=settings.pbeam, wbeam=settings.wbeam, silprob=settings.silprob, **extra)
     finally:
         os.unlink(path)
 
