@@ -11,19 +11,17 @@ speech poorly.  This module therefore:
 1. searches with beams far wider than the defaults (1e-200: almost no
    pruning).  A forced alignment holds only the transcript's own words, so
    the search stays small, and it then succeeds on whole clips of a minute;
-2. aligns a short clip in one forced pass.  A long one is cut in two at the
-   pause nearest its middle and the halves are aligned at once in two
-   processes: a grammar lets the acoustic model choose how many words the
-   first half holds (a prefix of the transcript) and how many the second
-   holds (a suffix).  Words left between the two are force-aligned to the
-   audio left between them; if the halves claim the same word, the whole clip
-   is force-aligned instead;
+2. aligns a clip in one forced pass.  A clip longer than
+   :attr:`AlignSettings.split_above` is cut in two and both halves are
+   aligned at once, in two processes: a quick forced word pass over the
+   whole clip, scoring every second frame only, finds the pause between two
+   words nearest the middle, and the cut goes there;
 3. checks every pass word by word against the transcript (each word is a
    unique token in a dictionary holding only the clip's words);
 4. where forced alignment still fails (audio that does not hold the
    transcript, say), falls back to smaller pieces: the audio is cut at its
-   pauses into chunks, words are assigned to chunks by the same prefix and
-   suffix grammars, and a stretch that still cannot be aligned has its
+   pauses into chunks, words are assigned to chunks by grammars that let the
+   acoustic model take a prefix (or a suffix) of the words, and a stretch that still cannot be aligned has its
    phonemes placed by estimate: the words are spread over the stretch's
    speech (pauses skipped) in proportion to their expected length, each
    phone taking a share of its word by its typical duration.  Such words and
@@ -573,7 +571,6 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         if kind == "phones":
             for k, frames in enumerate(payload):
                 result[wa + k] = [(p, t0 + a * FRAME, t0 + b * FRAME) for p, a, b in frames]
-                est[wa + k] = False
         elif kind == "words":
             for k, (a, b) in enumerate(payload):
                 result[wa + k] = _estimate([prons[wa + k]], [(t0 + a * FRAME, t0 + b * FRAME)])[0]
@@ -590,14 +587,13 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     done = False
     pool = _pool(settings) if audio.duration > settings.split_above else None
     if pool is not None:
-        done = _align_halves(audio, prons, mask, settings, pool, place, result)
+        done = _align_halves(audio, prons, settings, pool, place)
     if not done:
         kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings)
         if kind != "failed":
             place(kind, payload, 0, n, 0.0, audio.duration)
             done = True
     if not done:
-        notes.clear()
         _align_chunked(audio, prons, mask, settings, place, result, progress)
     if progress:
         progress(1.0)
@@ -649,7 +645,7 @@ def _split_words(audio: Audio, prons: list[list[str]], settings: AlignSettings) 
     return best[1], best[2] * FRAME
 
 
-def _align_halves(audio, prons, mask, settings, pool, place, result) -> bool:
+def _align_halves(audio: Audio, prons: list[list[str]], settings: AlignSettings, pool, place) -> bool:
     """A long clip: find where to cut it in two (see :func:`_split_words`),
     then force-align both halves with their own words at once.  Returns
     False, having placed nothing, if any pass fails."""
