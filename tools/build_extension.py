@@ -2,29 +2,45 @@
 
     .venv/bin/python tools/build_extension.py [--platform linux-x64 ...] [--output-dir dist]
 
-The wheels listed in ``blender_manifest.toml`` are downloaded once into
-``build/wheels`` (never committed), the package is staged in
-``build/stage`` (the ``addon`` package at the zip's root, beside the manifest
-and the wheels), and Blender's own extension tool, which ships inside the
-``bpy`` wheel (``addons_core/bl_pkg/cli/blender_ext.py``), builds and then
-validates each zip.  No Blender binary is needed.
+The wheels listed in ``blender_manifest.toml`` (parselmouth and
+pocketsphinx, for Python 3.11 and 3.13) are downloaded once into
+``build/wheels`` (never committed).  Each run stages the package in a
+temporary folder of its own (the ``addon`` package at the zip's root, beside
+the manifest and the wheels), so several builds may run at once, and
+Blender's own extension tool, which ships inside the ``bpy`` wheel
+(``addons_core/bl_pkg/cli/blender_ext.py``), builds and then validates each
+zip.  No Blender binary is needed.
+
+Wheels for Python 3.13 are staged under a name with a build tag
+(``pocketsphinx-5.1.1-1-cp313-cp313-...whl``; the file itself is PyPI's).
+Blender 4.2.13 and later install only the wheels matching their Python, but
+the first 4.2 releases filter by platform only and, of two wheels of one
+package and version, install the one whose file name sorts last
+(``wheel_list_deduplicate_as_skip_set`` in ``_bpy_internal/extensions/
+wheel_manager.py``): that would be ``cp313`` on their Python 3.11.  With the
+build tag the ``cp311`` name sorts last ("c" > "1").
 """
 
 from __future__ import annotations
 
 import argparse
 import glob
+import os
 import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 BUILD = ROOT / "build"
 WHEELS = BUILD / "wheels"
-STAGE = BUILD / "stage"
+
+#: Python tags whose wheels get :data:`BUILD_TAG` when staged (see above).
+BUILD_TAGGED = ("cp313",)
+BUILD_TAG = "1"
 
 # Wheel platform tag -> extension platforms it serves.
 _TAG_PLATFORMS = (
@@ -36,12 +52,43 @@ _TAG_PLATFORMS = (
 )
 
 
+def wheel_tags(filename: str) -> tuple[str, str, str, str, str]:
+    """(distribution, version, python tag, abi tag, platform tag) of a wheel
+    file name, with or without a build tag."""
+    parts = filename[:-len(".whl")].split("-")
+    if not filename.endswith(".whl") or len(parts) not in (5, 6):
+        raise SystemExit(f"build: {filename} is not a wheel file name")
+    return parts[0], parts[1], parts[-3], parts[-2], parts[-1]
+
+
 def wheel_platforms(filename: str) -> tuple[str, ...]:
-    tag = filename[:-len(".whl")].split("-")[-1]
+    tag = wheel_tags(filename)[4]
     for head, tail, platforms in _TAG_PLATFORMS:
         if tag.startswith(head) and tag.endswith(tail):
             return platforms
     raise SystemExit(f"build: cannot tell the platform of wheel {filename}")
+
+
+def staged_name(filename: str) -> str:
+    """The name a downloaded wheel has inside the zip."""
+    name, version, py, abi, tag = wheel_tags(filename)
+    if py in BUILD_TAGGED:
+        return "-".join((name, version, BUILD_TAG, py, abi, tag)) + ".whl"
+    return filename
+
+
+def check_pythons(wheels: list[str], platforms: list[str]) -> None:
+    """Every platform gets the same packages for every Python the manifest
+    names: a wheel missing for one Python would break the extension on the
+    Blender releases using it."""
+    pythons = sorted({wheel_tags(w)[2] for w in wheels})
+    for platform in platforms:
+        have = {py: sorted({wheel_tags(w)[0] for w in wheels
+                            if wheel_tags(w)[2] == py and platform in wheel_platforms(w)})
+                for py in pythons}
+        if len({tuple(v) for v in have.values()}) > 1:
+            raise SystemExit(f"build: the manifest's wheels for {platform} differ between Pythons: "
+                             + "; ".join(f"{py}: {', '.join(v) or 'none'}" for py, v in have.items()))
 
 
 def blender_ext() -> Path:
@@ -54,35 +101,42 @@ def blender_ext() -> Path:
 
 
 def download(filename: str) -> Path:
-    """Fetch one pinned wheel from the package index by its exact file name."""
+    """Fetch one pinned wheel from the package index by its exact file name.
+
+    pip is asked for exactly the file's tags (Python version, ABI and each
+    of its platform tags), so it finds this wheel whatever Python runs the
+    build.  The file lands in a private folder first and is then moved into
+    the cache, so builds running at once never see half a wheel."""
     target = WHEELS / filename
     if target.is_file():
         return target
     WHEELS.mkdir(parents=True, exist_ok=True)
-    name, version, py, abi, tag = filename[:-len(".whl")].split("-")
+    name, version, py, abi, tag = wheel_tags(filename)
     cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--no-deps", "--only-binary", ":all:",
-           "--dest", str(WHEELS), "--python-version", py[2:3] + "." + py[3:], "--implementation", "cp",
-           "--abi", abi, f"{name.replace('_', '-')}=={version}"]
+           "--python-version", py[2:3] + "." + py[3:], "--implementation", py[:2], "--abi", abi,
+           f"{name.replace('_', '-')}=={version}"]
     for t in tag.split("."):
         cmd += ["--platform", t]
-    subprocess.run(cmd, check=True)
-    if not target.is_file():
-        raise SystemExit(f"build: pip did not produce {filename}; is the manifest's wheel name right?")
+    with tempfile.TemporaryDirectory(dir=WHEELS, prefix=".download-") as tmp:
+        subprocess.run(cmd + ["--dest", tmp], check=True)
+        got = Path(tmp) / filename
+        if not got.is_file():
+            raise SystemExit(f"build: pip did not produce {filename} (it fetched "
+                             f"{', '.join(os.listdir(tmp)) or 'nothing'}); is the manifest's wheel name right?")
+        os.replace(got, target)
     return target
 
 
-def stage(manifest_text: str, platforms: list[str], wheels: list[str]) -> None:
-    if STAGE.exists():
-        shutil.rmtree(STAGE)
-    shutil.copytree(ROOT / "addon", STAGE, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-    (STAGE / "wheels").mkdir()
+def stage(stage_dir: Path, manifest_text: str, platforms: list[str], wheels: list[str]) -> None:
+    shutil.copytree(ROOT / "addon", stage_dir, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    (stage_dir / "wheels").mkdir()
     for w in wheels:
-        shutil.copy2(WHEELS / w, STAGE / "wheels" / w)
+        shutil.copy2(WHEELS / w, stage_dir / "wheels" / staged_name(w))
     text = re.sub(r"(?ms)^platforms = \[.*?\]", "platforms = [" + ", ".join(f'"{p}"' for p in platforms) + "]",
                   manifest_text)
-    text = re.sub(r"(?ms)^wheels = \[.*?\n\]", "wheels = [\n" + "".join(f'  "./wheels/{w}",\n' for w in wheels)
-                  + "]", text)
-    (STAGE / "blender_manifest.toml").write_text(text, encoding="utf-8")
+    text = re.sub(r"(?ms)^wheels = \[.*?\n\]", "wheels = [\n"
+                  + "".join(f'  "./wheels/{staged_name(w)}",\n' for w in wheels) + "]", text)
+    (stage_dir / "blender_manifest.toml").write_text(text, encoding="utf-8")
 
 
 def main(argv=None) -> int:
@@ -98,17 +152,20 @@ def main(argv=None) -> int:
     if unknown:
         raise SystemExit(f"build: unknown platform {', '.join(unknown)}; the manifest lists "
                          f"{', '.join(manifest['platforms'])}")
-    wheels = [Path(w).name for w in manifest["wheels"]
-              if set(wheel_platforms(Path(w).name)) & set(platforms)]
+    listed = [Path(w).name for w in manifest["wheels"]]
+    check_pythons(listed, platforms)
+    wheels = [w for w in listed if set(wheel_platforms(w)) & set(platforms)]
     for w in wheels:
         download(w)
-    stage(text, platforms, wheels)
 
     tool = blender_ext()
     out = Path(args.output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    subprocess.run([sys.executable, str(tool), "build", "--split-platforms", "--source-dir", str(STAGE),
-                    "--output-dir", str(out)], check=True)
+    with tempfile.TemporaryDirectory(prefix="emotive-lipsync-stage-") as tmp:
+        stage_dir = Path(tmp) / "emotive_lipsync"
+        stage(stage_dir, text, platforms, wheels)
+        subprocess.run([sys.executable, str(tool), "build", "--split-platforms", "--source-dir", str(stage_dir),
+                        "--output-dir", str(out)], check=True)
     stem = f"{manifest['id']}-{manifest['version']}"
     zips = [out / f"{stem}-{p.replace('-', '_')}.zip" for p in platforms]
     for z in zips:
