@@ -10,12 +10,10 @@ ARKIT_NAMES = ["Basis", "jawOpen", "mouthClose", "mouthFunnel", "mouthPucker", "
                "mouthStretchRight", "mouthSmileLeft", "mouthSmileRight", "mouthRollLower", "eyeBlinkLeft"]
 
 
-def test_oculus_names_and_vrchat_spelling():
+def test_a_sets_own_names_map_with_its_prefixes():
     vs = visemes.load("oculus")
-    assert mapping.auto_map(vs, OCULUS_NAMES)["aa"] == {"viseme_aa": 1.0}
-    vrc = ["Basis"] + [f"vrc.v_{v.lower()}" for v in vs.visemes]
-    mp = mapping.auto_map(vs, vrc)
-    assert mp["PP"] == {"vrc.v_pp": 1.0} and len(mp) == 15
+    mp = mapping.auto_map(vs, OCULUS_NAMES)
+    assert mp["aa"] == {"viseme_aa": 1.0} and len(mp) == 15
 
 
 def test_default_set_aliases_ignore_case_and_separators():
@@ -40,15 +38,6 @@ def test_arkit_mix_keeps_the_blendshapes_the_mesh_has():
     assert "sil" not in mp  # the rest pose drives nothing, and is not reported missing
     assert mapping.unmapped(vs, mp) == []
     assert mapping.unmapped(vs, mapping.auto_map(vs, ["Basis", "jawOpen"])) == ["PP"]
-
-
-def test_best_set_follows_the_mesh_naming_convention():
-    sets = [visemes.load(n) for n in visemes.builtin_names()]
-    assert mapping.best_set(sets, OCULUS_NAMES, prefer="default")[0].name == "oculus"
-    assert mapping.best_set(sets, ARKIT_NAMES, prefer="default")[0].name == "arkit"
-    rhubarb = ["Basis"] + [f"mouth_{c}" for c in "XABCDEFGH"]
-    assert mapping.best_set(sets, rhubarb)[0].name == "rhubarb"
-    assert mapping.best_set(sets, ["Basis", "Smile", "Blink"]) is None
 
 
 def test_shape_key_curves_sum_weighted_visemes_and_clip():

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ImportFormatError
-from .mapping import canonical
+from .conventions import canonical
 
 ARKIT = ("eyeBlinkLeft eyeLookDownLeft eyeLookInLeft eyeLookOutLeft eyeLookUpLeft eyeSquintLeft eyeWideLeft "
          "eyeBlinkRight eyeLookDownRight eyeLookInRight eyeLookOutRight eyeLookUpRight eyeSquintRight "

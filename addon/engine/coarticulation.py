@@ -201,6 +201,21 @@ def smooth(curves: np.ndarray, fps: float, sigma_s: float) -> np.ndarray:
     return out
 
 
+def _envelope(times: np.ndarray, ev: Event, ramp: float) -> tuple[int, int, np.ndarray]:
+    """Frames [lo, hi) around ``ev`` and how closed the lips are on each:
+    1 during the phoneme, falling to 0 over ``ramp`` seconds either side; a
+    phoneme shorter than a frame gets the frame nearest its centre."""
+    lo, hi = np.searchsorted(times, [ev.start - ramp, ev.end + ramp])
+    inside = (times[lo:hi] >= ev.start) & (times[lo:hi] <= ev.end)
+    if not inside.any():
+        k = int(np.clip(np.searchsorted(times, ev.centre), 0, len(times) - 1))
+        if k > 0 and abs(times[k - 1] - ev.centre) < abs(times[k] - ev.centre):
+            k -= 1
+        return k, k + 1, np.ones(1)
+    t = times[lo:hi]
+    return lo, hi, np.where(inside, 1.0, 1.0 - np.minimum(np.abs(t - np.clip(t, ev.start, ev.end)) / ramp, 1.0))
+
+
 def enforce_closures(curves: np.ndarray, times: np.ndarray, events: list[Event],
                      strength: float, ramp: float = 0.03) -> np.ndarray:
     """Make every bilabial and labiodental closure visible (module docstring)."""
@@ -210,20 +225,24 @@ def enforce_closures(curves: np.ndarray, times: np.ndarray, events: list[Event],
     for ev in events:
         if ev.cls not in CLOSURE_CLASSES:
             continue
-        lo, hi = np.searchsorted(times, [ev.start - ramp, ev.end + ramp])
-        inside = (times[lo:hi] >= ev.start) & (times[lo:hi] <= ev.end)
-        if not inside.any():
-            # Shorter than a frame: the frame nearest its centre shows it.
-            k = int(np.clip(np.searchsorted(times, ev.centre), 0, len(times) - 1))
-            if k > 0 and abs(times[k - 1] - ev.centre) < abs(times[k] - ev.centre):
-                k -= 1
-            lo, hi = k, k + 1
-            env = np.ones(1)
-        else:
-            t = times[lo:hi]
-            env = np.where(inside, 1.0, 1.0 - np.minimum(np.abs(t - np.clip(t, ev.start, ev.end)) / ramp, 1.0))
+        lo, hi, env = _envelope(times, ev, ramp)
         block = out[lo:hi]
         own = block[:, ev.viseme].copy()
         block *= (1.0 - strength * env)[:, None]
         block[:, ev.viseme] = np.maximum(own, ev.weight * env)
+    return out
+
+
+def closure_track(times: np.ndarray, phones: list[tuple[str, float, float]], ramp: float = 0.03) -> np.ndarray:
+    """Per frame, how fully the lips must be closed: 1 during every /p b m/,
+    ramping to 0 over ``ramp`` seconds, 0 elsewhere.  A rig applies it the
+    way its shape keys close the lips (:mod:`.conventions`)."""
+    out = np.zeros(len(times))
+    if len(times) == 0:
+        return out
+    for phone, start, end in phones:
+        if phone_class(phone) != "bilabial":
+            continue
+        lo, hi, env = _envelope(times, Event(-1, start, end, 1.0, phone, "bilabial"), ramp)
+        out[lo:hi] = np.maximum(out[lo:hi], env)
     return out

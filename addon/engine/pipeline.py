@@ -84,6 +84,7 @@ class Result:
     times: np.ndarray          # per frame, s
     curves: np.ndarray         # (frames, visemes) in [0, 1]
     notes: list[str] = field(default_factory=list)
+    closure: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per frame: lips closed (/p b m/), 0-1
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -105,7 +106,8 @@ class Result:
                           "estimated": bool(p.estimated)}
                          for p, f, i, w in zip(al.phones, self.pitch, self.intensity, self.weights)],
             "frames": {"time": [round(float(t), 6) for t in self.times],
-                       "weights": np.round(self.curves, 4).tolist()},
+                       "weights": np.round(self.curves, 4).tolist(),
+                       "closure": np.round(self.closure, 4).tolist()},
             "notes": self.notes,
         }
 
@@ -238,8 +240,9 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     notes = list(al.notes)
     if not stats.voiced:
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
+    closure = coarticulation.closure_track(times, [(p.phone, p.start, p.end) for p in al.phones])
     return Result(al.duration, fps, vset, preset.get("name", str(emotion)), coarticulation_model, al,
-                  pitch, inten, w, times, out, notes)
+                  pitch, inten, w, times, out, notes, closure)
 
 
 __all__ = ["analyze", "align_audio", "align_file", "curves", "parse_fps", "Result", "CLASSES"]
