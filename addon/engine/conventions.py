@@ -54,6 +54,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -139,8 +140,10 @@ class Match:
 # --- names ----------------------------------------------------------------------
 
 def canonical(name: str) -> str:
-    """A shape-key name compared without case or separators; a trailing
-    ``_L``/``.R`` side letter reads as ``Left``/``Right``."""
+    """A shape-key name compared without case, width (MMD's full-width
+    characters) or separators; a trailing ``_L``/``.R`` side letter reads as
+    ``Left``/``Right``."""
+    name = unicodedata.normalize("NFKC", name)
     name = re.sub(r"(?<=[a-z0-9])[\s._\-]+([LlRr])$",
                   lambda m: "left" if m.group(1) in "Ll" else "right", name)
     return re.sub(r"[\s._\-]+", "", name).lower()
