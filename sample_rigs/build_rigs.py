@@ -3,8 +3,9 @@
 * **Ada** has one shape key per viseme of the default set (``MBP``, ``FV``,
   ``AHH``, ``OHH``, ...), the way hand-made cartoon rigs are often set up.
 * **Kit** has ARKit-named blendshapes (``jawOpen``, ``mouthClose``,
-  ``mouthFunnel``, ``mouthPucker``, ``mouthStretchLeft`` ...), as an
-  iPhone-captured or Ready Player Me style head would.
+  ``mouthFunnel``, ``mouthPucker``, ``mouthStretchLeft`` ...) on a closed
+  mouth, as an iPhone-captured head has them: ``mouthClose`` brings the lips
+  together on an open jaw.
 
 Each head is a sphere with a ring of lips and a dark mouth interior; every
 shape key is a mix of a few mouth movements (jaw open, lips closed, lips
@@ -79,6 +80,9 @@ def _movements(co, u, v, part):
         "shrug_upper": d(dz=0.03 * upper),
         "shrug_lower": d(dz=0.04 * lower, dy=-0.02 * lower),
         "press": d(dz=-0.4 * (MOUTH_H + 0.004) * v * mouth, dx=0.02 * u * mouth),
+        # ARKit's mouthClose: the lips move toward each other by as much as
+        # the jaw drops them apart, so they meet on an open jaw.
+        "close_jaw": d(dz=0.32 * (0.7 * lower - 0.3 * upper), dy=-0.05 * 0.7 * lower),
     }
 
 
@@ -100,10 +104,12 @@ DEFAULT_KEYS = {
     "UUU": {"open": 0.12, "round": 1.0},
 }
 
-#: Kit: the mouth and jaw blendshapes of ARKit's 52.
+#: Kit: the mouth and jaw blendshapes of ARKit's 52, on a closed-mouth
+#: basis (:data:`ARKIT_BASIS`) as ARKit defines them.
+ARKIT_BASIS = {"close": 1.0}
 ARKIT_KEYS = {
     "jawOpen": {"open": 1.0}, "jawForward": {"jaw_fwd": 1.0}, "jawLeft": {"jaw_l": 1.0},
-    "jawRight": {"jaw_r": 1.0}, "mouthClose": {"close": 1.0}, "mouthFunnel": {"round": 0.7, "open": 0.15},
+    "jawRight": {"jaw_r": 1.0}, "mouthClose": {"close_jaw": 1.0}, "mouthFunnel": {"round": 0.7, "open": 0.15},
     "mouthPucker": {"round": 1.0}, "mouthLeft": {"shift_l": 1.0}, "mouthRight": {"shift_r": 1.0},
     "mouthSmileLeft": {"smile_l": 1.0}, "mouthSmileRight": {"smile_r": 1.0},
     "mouthFrownLeft": {"frown_l": 1.0}, "mouthFrownRight": {"frown_r": 1.0},
@@ -192,18 +198,25 @@ def _mouth_coords(mesh):
     return co, u, v, part
 
 
-def build_character(name: str, keys: dict[str, dict[str, float]], location=(0.0, 0.0, 0.0)):
+def build_character(name: str, keys: dict[str, dict[str, float]], location=(0.0, 0.0, 0.0),
+                    basis: dict[str, float] | None = None):
+    """A head with ``keys`` (name -> mix of movements); ``basis`` moves the
+    rest shape itself (a closed mouth for ARKit)."""
     mesh = build_mesh(name)
     obj = bpy.data.objects.new(name, mesh)
     obj.location = location
     bpy.context.scene.collection.objects.link(obj)
     co, u, v, part = _mouth_coords(mesh)
     moves = _movements(co, u, v, part)
+    if basis:
+        co = co + sum(w * moves[m] for m, w in basis.items())
+        mesh.vertices.foreach_set("co", co.ravel())
     obj.shape_key_add(name="Basis", from_mix=False)
     for key_name, mix in keys.items():
         kb = obj.shape_key_add(name=key_name, from_mix=False)
         disp = sum(w * moves[m] for m, w in mix.items())
         kb.data.foreach_set("co", (co + disp).ravel())
+        kb.value = 0.0
     for side in (-1, 1):  # eyes, so the head reads as a face
         eye = bpy.data.objects.new(f"{name}_eye_{'L' if side > 0 else 'R'}", _eye_mesh())
         eye.parent = obj
@@ -235,7 +248,7 @@ def build_scene_objects():
     """Ada, Kit and a camera in the current scene."""
     scene = bpy.context.scene
     ada = build_character("Ada", DEFAULT_KEYS, (-1.25, 0, 0))
-    kit = build_character("Kit", ARKIT_KEYS, (1.25, 0, 0))
+    kit = build_character("Kit", ARKIT_KEYS, (1.25, 0, 0), basis=ARKIT_BASIS)
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location = (0, -7.5, -0.1)
     cam.rotation_euler = (math.radians(90), 0, 0)

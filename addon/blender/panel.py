@@ -10,7 +10,7 @@ import bpy
 from ..engine import mapping as mapping_mod
 from ..engine import visemes
 from ..engine.errors import LipSyncError
-from . import compat, keying, sources
+from . import compat, keying, run, sources
 from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
                         LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_load_transcript)
 from .preset_ui import LIPSYNC_MT_emotion_presets, LIPSYNC_OT_preset_add
@@ -20,6 +20,27 @@ def _face(context):
     st = context.scene.emotive_lipsync
     obj = st.target or context.active_object
     return obj if obj is not None and obj.type == "MESH" else None
+
+
+_detect_cache: dict = {}
+
+
+def _detected(obj):
+    """The convention Generate would pick for ``obj`` (kept while its shape
+    keys and settings stay the same: the panel redraws often)."""
+    st = obj.emotive_lipsync
+    sig = (obj.name, tuple(k.name for k in obj.data.shape_keys.key_blocks), st.viseme_set, st.viseme_set_file)
+    if sig not in _detect_cache:
+        if len(_detect_cache) > 64:
+            _detect_cache.clear()
+        try:
+            _detect_cache[sig] = run.detect(obj)
+        except LipSyncError as exc:
+            _detect_cache[sig] = exc
+    found = _detect_cache[sig]
+    if isinstance(found, LipSyncError):
+        raise found
+    return found
 
 
 def _strips_prop():
@@ -39,12 +60,12 @@ def problems(context) -> list[str]:
     else:
         ost = obj.emotive_lipsync
         try:
-            vset = visemes.load(ost.viseme_set_source())
-            mp = ost.mapping_dict() or mapping_mod.auto_map(vset, [k.name for k in obj.data.shape_keys.key_blocks])
-            missing = mapping_mod.unmapped(vset, mp)
-            if not mp:
-                out.append(f"No shape key of {obj.name} matches {vset.name}")
-            elif missing:
+            if ost.mapping_dict():
+                missing = mapping_mod.unmapped(run.mesh_viseme_set(obj), ost.mapping_dict())
+            else:
+                found = _detected(obj)
+                missing = mapping_mod.unmapped(visemes.load(found.convention.viseme_set), found.mapping)
+            if missing:
                 out.append(f"Unmapped visemes: {', '.join(missing)}")
         except LipSyncError as exc:
             out.append(str(exc))
@@ -155,6 +176,15 @@ class LIPSYNC_PT_shapes(_Panel, bpy.types.Panel):
         layout.prop(ost, "viseme_set")
         if ost.viseme_set == "FILE":
             layout.prop(ost, "viseme_set_file")
+        if len(ost.mapping) and ost.convention:
+            layout.label(text=f"Convention: {ost.convention}", icon="CHECKMARK")
+        elif not len(ost.mapping) and obj.data.shape_keys is not None:
+            try:
+                found = _detected(obj)
+                layout.label(text=f"Detected: {found.describe(visemes.load(found.convention.viseme_set))}",
+                             icon="VIEWZOOM")
+            except LipSyncError:
+                layout.label(text="No known naming convention: map by hand", icon="ERROR")
         layout.operator(LIPSYNC_OT_auto_map.bl_idname, icon="AUTO")
         row = layout.row()
         row.template_list("LIPSYNC_UL_mapping", "", ost, "mapping", ost, "mapping_index", rows=6)

@@ -21,12 +21,13 @@ from ..engine.errors import LipSyncError
 _PACKAGE = __package__.rpartition(".")[0]
 
 
-def user_dir(create: bool = True) -> str:
+def user_dir(create: bool = True, kind: str = "presets") -> str:
+    """The user's folder of ``kind`` (``presets``, ``conventions``)."""
     try:
-        return bpy.utils.extension_path_user(_PACKAGE, path="presets", create=create)
+        return bpy.utils.extension_path_user(_PACKAGE, path=kind, create=create)
     except ValueError:
         # Loaded as a plain add-on (not an extension), e.g. from a script.
-        path = bpy.utils.user_resource("SCRIPTS", path=os.path.join("presets", "emotive_lipsync"), create=create)
+        path = bpy.utils.user_resource("SCRIPTS", path=os.path.join(kind, "emotive_lipsync"), create=create)
         return path
 
 

@@ -10,8 +10,22 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 
 from ..engine import presets, visemes
 
-VISEME_SETS = [(n, n.replace("_", " ").title() if n != "arkit" else "ARKit", visemes.load(n).description)
-               for n in visemes.builtin_names()] + [("FILE", "From File", "A viseme set of your own (JSON file)")]
+# Stored as numbers: the sets of the first release keep theirs, so older
+# files read back the same choice; later sets are numbered from 10 up.
+_NUMBERS = {"arkit": 0, "default": 1, "oculus": 2, "preston_blair": 3, "rhubarb": 4, "FILE": 5, "AUTO": 99}
+
+
+def _set_items():
+    names = visemes.builtin_names()
+    later = {n: 10 + i for i, n in enumerate(n for n in names if n not in _NUMBERS)}
+    return ([("AUTO", "Automatic", "Follow the naming convention of the mesh's shape keys (Ready Player Me, ARKit, "
+              "VRoid, Character Creator, Daz ...)", _NUMBERS["AUTO"])]
+            + [(n, {"arkit": "ARKit"}.get(n, n.replace("_", " ").title()), visemes.load(n).description,
+                _NUMBERS.get(n, later.get(n))) for n in names]
+            + [("FILE", "From File", "A viseme set of your own (JSON file)", _NUMBERS["FILE"])])
+
+
+VISEME_SETS = _set_items()
 
 
 class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
@@ -24,27 +38,41 @@ class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
 
 
 class LIPSYNC_PG_object(bpy.types.PropertyGroup):
-    viseme_set: EnumProperty(name="Viseme Set", items=VISEME_SETS, default="default",
+    viseme_set: EnumProperty(name="Viseme Set", items=VISEME_SETS, default="AUTO",
                              description="The mouth shapes this mesh's shape keys follow")
+    convention: StringProperty(name="Convention", description="The naming convention the mapping was made "
+                                                              "from (filled in by Auto-Map)")
+    mapped_set: StringProperty(name="Mapped Set", options={"HIDDEN"},
+                               description="The viseme set the mapping was made for")
+    closure_rule: StringProperty(name="Closure", options={"HIDDEN"},
+                                 description="How this mesh's keys close the lips on /p b m/ (JSON, from the "
+                                             "convention)")
     viseme_set_file: StringProperty(name="Viseme Set File", subtype="FILE_PATH",
                                     description="A viseme set JSON file (see the README)")
     mapping: CollectionProperty(type=LIPSYNC_PG_mapping_item)
     mapping_index: IntProperty(name="Active Mapping", default=0)
 
-    def viseme_set_source(self) -> str:
-        return bpy.path.abspath(self.viseme_set_file) if self.viseme_set == "FILE" else self.viseme_set
+    def viseme_set_source(self) -> str | None:
+        """The chosen set's name or file; None for Automatic."""
+        if self.viseme_set == "FILE":
+            return bpy.path.abspath(self.viseme_set_file)
+        return None if self.viseme_set == "AUTO" else self.viseme_set
 
     def mapping_dict(self) -> dict[str, dict[str, float]]:
+        """Viseme -> {shape key: weight}; a row with no shape key says the
+        basis shape shows that viseme."""
         out: dict[str, dict[str, float]] = {}
         for item in self.mapping:
-            if item.viseme and item.shape_key:
-                out.setdefault(item.viseme, {})[item.shape_key] = item.weight
+            if item.viseme:
+                mix = out.setdefault(item.viseme, {})
+                if item.shape_key:
+                    mix[item.shape_key] = item.weight
         return out
 
     def set_mapping(self, mapping: dict[str, dict[str, float]]) -> None:
         self.mapping.clear()
         for v, mix in mapping.items():
-            for k, w in mix.items():
+            for k, w in (mix or {"": 1.0}).items():
                 item = self.mapping.add()
                 item.viseme, item.shape_key, item.weight = v, k, w
         self.mapping_index = 0
