@@ -43,6 +43,19 @@ def _detected(obj):
     return found
 
 
+def _convention_text(obj) -> str:
+    """The naming convention the face's keys follow, for the panel."""
+    ost = obj.emotive_lipsync
+    if len(ost.mapping):
+        return ost.convention or "Mapped by hand"
+    if obj.data.shape_keys is None or len(obj.data.shape_keys.key_blocks) < 2:
+        return ""
+    try:
+        return _detected(obj).convention.label + " (detected)"
+    except LipSyncError:
+        return ""
+
+
 def _strips_prop():
     """The sequence editor's collection of every strip (renamed in 4.4)."""
     return "strips_all" if "strips_all" in bpy.types.SequenceEditor.bl_rna.properties else "sequences_all"
@@ -143,6 +156,12 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
             col.operator(LIPSYNC_OT_load_transcript.bl_idname, icon="FILE_TEXT", text="Load .txt")
 
         layout.prop(st, "target")
+        face = _face(context)
+        convention = _convention_text(face) if face is not None else ""
+        if convention:
+            row = layout.row()
+            row.alignment = "RIGHT"
+            row.label(text=convention, icon="SHAPEKEY_DATA")
 
         issues = problems(context)
         box = layout.box() if issues else None
@@ -154,7 +173,6 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         row.operator(LIPSYNC_OT_generate.bl_idname, icon="PLAY_SOUND")
         row = layout.row(align=True)
         row.operator(LIPSYNC_OT_generate_all.bl_idname, icon="SEQUENCE")
-        face = _face(context)
         sub = row.row(align=True)
         sub.enabled = face is not None and keying.lipsynced(face)
         sub.operator(LIPSYNC_OT_clear.bl_idname, icon="X", text="Clear")

@@ -116,3 +116,18 @@ def test_unknown_names_say_what_is_known(empty_scene):
         bpy.ops.emotive_lipsync.auto_map(mesh="Blob")
     with pytest.raises(RuntimeError, match="match the viseme set 'oculus'"):
         bpy.ops.emotive_lipsync.auto_map(mesh="Blob", viseme_set="oculus")
+
+
+def test_panel_says_which_convention(empty_scene):
+    panel = import_module(MODULE + ".blender.panel")
+    keys, _open = HEADS["vroid"]
+    obj = build_head("Face", keys)
+    assert panel._convention_text(obj) == _convention_label("vroid") + " (detected)"
+    assert panel.problems(bpy.context) != []  # no audio yet; but no mapping complaint
+    assert not any("Unmapped" in p or "convention" in p for p in panel.problems(bpy.context))
+    assert bpy.ops.emotive_lipsync.auto_map(mesh="Face") == {"FINISHED"}
+    assert panel._convention_text(obj) == _convention_label("vroid")
+    blob = build_head("Blob", {"Smile": {"smile": 1.0}})
+    bpy.context.view_layer.objects.active = blob
+    assert panel._convention_text(blob) == ""
+    assert any("naming convention" in p for p in panel.problems(bpy.context))
