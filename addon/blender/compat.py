@@ -1,4 +1,6 @@
-"""Every difference between the Blender versions the extension supports.
+"""Every difference between the Blender versions (and builds) the extension
+supports, 4.2 LTS to 5.2 LTS.  The rest of the extension calls these
+functions and never tests a version itself.
 
 * Animation data: Blender 4.2-4.3 keep F-curves on ``Action.fcurves``.
   4.4 introduced slotted actions, where F-curves live in a channelbag per
@@ -9,13 +11,54 @@
 * Sequencer: ``SequenceEditor.sequences_all`` became ``strips_all`` in 4.4
   (``sequences_all`` was removed in 5.0).
   https://developer.blender.org/docs/release_notes/4.4/sequencer/
+* Strip timing: 5.1 renamed a strip's frame properties (``frame_start`` ->
+  ``content_start``, ``frame_final_start``/``frame_final_end`` ->
+  ``left_handle``/``right_handle``); the old names still work there but
+  raise a DeprecationWarning saying they go in 6.0.  A sound strip's
+  ``sound_offset`` (seconds) does not exist in 4.2.
+* Audio: Blender decodes sound with its own library, Audaspace (the ``aud``
+  module).  The ``bpy`` module on PyPI for 4.2 is built without it: no
+  ``aud``, and sound strips cannot be added there (those read from a .blend
+  keep their timing).  Audio is then decoded by the engine's own reader
+  (Praat, through parselmouth).
 """
 
 from __future__ import annotations
 
 import bpy
 
+from ..engine.audio import Audio, from_samples, load
+from ..engine.errors import AudioError
+
 SLOTTED_ACTIONS = bpy.app.version >= (4, 4, 0)
+
+#: Strip handles named ``left_handle``/``right_handle`` (5.1 and later).
+STRIP_HANDLES = bpy.app.version >= (5, 1, 0)
+
+#: Blender's sound library is built in (everywhere but PyPI's 4.2 ``bpy``).
+AUDASPACE = bool(bpy.app.build_options.audaspace)
+
+
+# --- audio ---------------------------------------------------------------------
+
+def decode_file(path: str) -> Audio:
+    """An existing audio file -> the engine's mono samples.
+
+    With Audaspace every format the sequencer plays is read (WAV, FLAC, MP3,
+    OGG, AAC ...); without it the engine's reader takes WAV, FLAC, MP3 and
+    AIFF.  Raises :class:`AudioError` or, from Audaspace, its own error
+    types (the caller reports those)."""
+    if not AUDASPACE:
+        return load(path)
+    import aud
+    import numpy as np
+
+    snd = aud.Sound(path)
+    rate = int(snd.specs[0])
+    data = snd.rechannel(1).data()
+    if data is None or data.size == 0 or rate <= 0:
+        raise AudioError(f"{path} holds no audio")
+    return from_samples(np.asarray(data[:, 0], dtype=np.float32), rate)
 
 
 # --- sequencer ---------------------------------------------------------------
@@ -30,6 +73,34 @@ def all_strips(scene):
 
 def sound_strips(scene):
     return [s for s in all_strips(scene) if s.type == "SOUND"]
+
+
+def sound_strips_in_order(scene):
+    """Every sound strip, earliest first (then by channel)."""
+    return sorted(sound_strips(scene), key=lambda s: (strip_frames(s)[0], s.channel))
+
+
+#: The ``SequenceEditor`` collection of every strip, by name (for ``prop_search``).
+ALL_STRIPS_PROPERTY = "strips_all" if "strips_all" in bpy.types.SequenceEditor.bl_rna.properties \
+    else "sequences_all"
+
+
+def strip_frames(strip) -> tuple[int, int]:
+    """The strip's first visible frame and the first frame after it."""
+    if STRIP_HANDLES:
+        return strip.left_handle, strip.right_handle
+    return strip.frame_final_start, strip.frame_final_end
+
+
+def strip_content_start(strip) -> float:
+    """The frame the strip's sound starts on (before any trim)."""
+    return strip.content_start if STRIP_HANDLES else strip.frame_start
+
+
+def strip_sound_offset(strip) -> float:
+    """Seconds of the sound skipped before the strip's content start (no
+    such property in 4.2: 0 there)."""
+    return getattr(strip, "sound_offset", 0.0)
 
 
 # --- F-curves ----------------------------------------------------------------

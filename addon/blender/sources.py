@@ -1,10 +1,12 @@
 """Where the audio, the transcript and the target mesh come from.
 
 Audio is decoded by Blender's own sound library (``aud``), so every format
-the sequencer plays works, ``//`` paths are resolved against the .blend and
-packed sounds are read from memory.  A sound strip's visible part is what
-gets lip-synced: trims, the strip's offset and the sound offset are applied,
-and the keys start on the strip's first visible frame.
+the sequencer plays works (a ``bpy`` build without it falls back on the
+engine's reader: see :func:`.compat.decode_file`), ``//`` paths are resolved
+against the .blend and packed sounds are read from their packed data.  A
+sound strip's visible part is what gets lip-synced: trims, the strip's
+offset and the sound offset are applied, and the keys start on the strip's
+first visible frame.
 """
 
 from __future__ import annotations
@@ -15,9 +17,8 @@ import tempfile
 from dataclasses import dataclass
 
 import bpy
-import numpy as np
 
-from ..engine.audio import Audio, from_samples
+from ..engine.audio import Audio
 from ..engine.errors import AudioError, LipSyncError, TranscriptError
 from . import compat
 
@@ -42,21 +43,16 @@ def scene_fps(scene) -> float:
 
 def decode(path: str) -> Audio:
     """Any file the sequencer can play -> mono float samples."""
-    import aud
-
     if not path:
         raise AudioError("no audio file given")
     if not os.path.isfile(path):
         raise AudioError(f"audio file not found: {path}")
     try:
-        snd = aud.Sound(path)
-        rate = int(snd.specs[0])
-        data = snd.rechannel(1).data()
+        return compat.decode_file(path)
+    except AudioError:
+        raise
     except Exception as exc:  # aud raises its own error types
         raise AudioError(f"cannot decode {path}: {exc}") from None
-    if data is None or data.size == 0 or rate <= 0:
-        raise AudioError(f"{path} holds no audio")
-    return from_samples(np.asarray(data[:, 0], dtype=np.float32), rate)
 
 
 def sound_path(sound) -> str:
@@ -97,15 +93,17 @@ def strip_clip(scene, strip) -> Clip:
         raise AudioError(f"sound strip {strip.name!r} has no sound")
     snd = decode_sound(strip.sound)
     fps = scene_fps(scene)
-    first = int(strip.frame_final_start)
-    t0 = (strip.frame_final_start - strip.frame_start) / fps + getattr(strip, "sound_offset", 0.0)
-    t1 = (strip.frame_final_end - strip.frame_start) / fps + getattr(strip, "sound_offset", 0.0)
+    first, end = compat.strip_frames(strip)
+    start = compat.strip_content_start(strip)
+    offset = compat.strip_sound_offset(strip)
+    t0 = (first - start) / fps + offset
+    t1 = (end - start) / fps + offset
     a = max(0, int(round(t0 * snd.rate)))
     b = min(len(snd.samples), int(round(t1 * snd.rate)))
     if b - a < int(0.05 * snd.rate):
         raise AudioError(f"sound strip {strip.name!r} shows less than 50 ms of its sound")
     path = None if strip.sound.packed_file is not None else sound_path(strip.sound)
-    return Clip(Audio(snd.samples[a:b], snd.rate), first, strip.name, path)
+    return Clip(Audio(snd.samples[a:b], snd.rate), int(first), strip.name, path)
 
 
 def file_clip(path: str, first_frame: int) -> Clip:
