@@ -89,9 +89,34 @@ def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]]]:
     return vset, mp
 
 
-def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:
-    """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
-    t0 = time.perf_counter()
+@dataclass
+class Plan:
+    """One run's inputs as plain values, read from Blender on the main thread.
+
+    The engine's part (:func:`analyze`) needs nothing else, so it may run in
+    a background thread; the keys are written by :func:`key`.
+    """
+
+    scene: str
+    mesh: str
+    clip: Clip
+    text: str
+    options: Options
+    fps: float
+    mapping: dict[str, dict[str, float]]
+    viseme_set: str | None                 # the engine's viseme set (None: the learned preset's own)
+    started: float = field(default_factory=time.perf_counter)
+
+
+@dataclass
+class Analysis:
+    result: pipeline.Result
+    seconds: float
+
+
+def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
+    """Read a run's inputs from Blender (an empty mapping is filled in first,
+    see :func:`mesh_mapping`)."""
     if options.emotion.get("learned"):
         # A learned preset carries its own poses, in the training mesh's
         # shape-key names.
@@ -108,15 +133,39 @@ def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None)
     else:
         _vset, mp = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source()
-    result = pipeline.analyze(clip.audio, text, viseme_set=set_source,
-                              emotion=options.emotion, coarticulation_model=options.coarticulation,
-                              fps=scene_fps(scene), dictionary=options.dictionary,
-                              settings=AlignSettings(workers=options.workers), progress=progress)
+    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source)
+
+
+def analyze(plan: Plan, progress=None) -> Analysis:
+    """The engine's part of a run.  It touches no Blender data, so it may run
+    in a background thread."""
+    t0 = time.perf_counter()
+    o = plan.options
+    result = pipeline.analyze(plan.clip.audio, plan.text, viseme_set=plan.viseme_set,
+                              emotion=o.emotion, coarticulation_model=o.coarticulation,
+                              fps=plan.fps, dictionary=o.dictionary,
+                              settings=AlignSettings(workers=o.workers), progress=progress)
+    return Analysis(result, time.perf_counter() - t0)
+
+
+def key(obj, plan: Plan, analysis: Analysis) -> Summary:
+    """Write an analysed run's keys on ``obj``'s mapped shape keys (main thread)."""
+    t0 = time.perf_counter()
+    result, clip = analysis.result, plan.clip
+    names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
+    gone = sorted(set(names) - set(check_mesh(obj)))
+    if gone:
+        raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
+                           "nothing was keyed")
+    counts = keying.write(obj, names, values, clip.first_frame, plan.options.tolerance, clip.label)
     t1 = time.perf_counter()
-    names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, mp)
-    counts = keying.write(obj, names, values, clip.first_frame, options.tolerance, clip.label)
-    t2 = time.perf_counter()
     words = result.alignment.words
-    return Summary(obj.name, clip.label, t2 - t0, counts["first_frame"], counts["last_frame"], len(names),
-                   counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated), len(words),
-                   {"engine": t1 - t0, "keying": t2 - t1})
+    return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
+                   len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
+                   len(words), {"engine": analysis.seconds, "keying": t1 - t0})
+
+
+def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:
+    """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
+    p = plan(scene, obj, clip, text, options)
+    return key(obj, p, analyze(p, progress))
