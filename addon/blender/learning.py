@@ -1,17 +1,15 @@
 """"Learn Preset from This Animation": the mesh's shape-key animation over
 its sound strips becomes training data for :mod:`..engine.learn`.
 
-The Blender data is read on the main thread; aligning and fitting run in a
-background thread while the operator (invoked from the panel) shows
-progress and stays cancellable with Esc.  From scripts, ``execute`` runs the
-same work in one go.
+The Blender data is read on the main thread; aligning and fitting are a
+:class:`.jobs.Job`, run in a background thread when the operator is invoked
+from the panel (progress in the status bar, Esc cancels) and in one go from
+scripts.
 """
 
 from __future__ import annotations
 
 import os
-import threading
-import time
 
 import bpy
 import numpy as np
@@ -20,7 +18,7 @@ from bpy.props import FloatProperty, StringProperty
 from ..engine import learn, presets
 from ..engine.errors import LipSyncError
 from ..engine.pipeline import align_audio
-from . import compat, run, sources
+from . import compat, jobs, run, sources
 
 
 def _tracks(obj, first: int, n_frames: int, fps: float):
@@ -85,7 +83,32 @@ def summary(result: learn.Learned, path: str) -> tuple[str, str]:
     return "WARNING", msg + f": NOT better than the built-in preset (saved anyway to {path})"
 
 
-class LIPSYNC_OT_learn_preset(bpy.types.Operator):
+#: Where each step of :func:`work` lies in the whole: (start, share).
+PHASES = {"align": (0.0, 0.3), "prepare": (0.3, 0.1), "fit": (0.4, 0.5), "evaluate": (0.9, 0.1),
+          "done": (1.0, 0.0)}
+
+
+def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: float) -> jobs.Job:
+    """Learning as a job: the preset is saved with the user's presets and
+    loaded into the scene's panel when it is done."""
+    scene_name = scene.name
+
+    def finish(result: learn.Learned) -> tuple[str, str]:
+        from .preset_ui import user_dir
+
+        path = os.path.join(user_dir(), name + ".json")
+        result.save(path)
+        target = bpy.data.scenes.get(scene_name)
+        if target is not None:
+            target.emotive_lipsync.load_preset(result.preset, name)
+        return summary(result, path)
+
+    return jobs.Job(jobs.LEARN, f"Learning preset {name!r}",
+                    lambda progress: work(data, viseme_set, emotion, name, holdout, progress), finish,
+                    phases=PHASES)
+
+
+class LIPSYNC_OT_learn_preset(jobs.ModalJob, bpy.types.Operator):
     """Learn an emotion preset from this mesh's shape-key animation over its sound strips (hand-keyed or \
 captured lip sync), and save it as one of your presets"""
 
@@ -111,83 +134,35 @@ captured lip sync), and save it as one of your presets"""
         name = self.name.strip()
         if not name or name in presets.builtin_names() or any(c in name for c in '/\\:*?"<>|'):
             raise LipSyncError(f"{name!r} cannot be the new preset's name")
-        st = obj.emotive_lipsync
-        if st.viseme_set == "FILE":
+        if obj is not None and obj.emotive_lipsync.viseme_set == "FILE":
             raise LipSyncError("learning needs one of the built-in viseme sets on the mesh")
         names = [n.strip() for n in self.strips.split(",") if n.strip()]
-        return obj, st.viseme_set, collect(context.scene, obj, names)
+        data = collect(context.scene, obj, names)
+        return obj, run.mesh_viseme_set(obj).name, data
 
-    def _finish(self, context, result):
-        from .preset_ui import user_dir
-
-        path = os.path.join(user_dir(), self.name.strip() + ".json")
-        result.save(path)
-        context.scene.emotive_lipsync.load_preset(result.preset, self.name.strip())
-        level, msg = summary(result, path)
-        self.report({level}, msg)
-        return {"FINISHED"}
+    def _job(self, context) -> jobs.Job:
+        _obj, vset, data = self._prepare(context)
+        return learn_job(context.scene, vset, data, self.emotion, self.name.strip(), self.holdout)
 
     def execute(self, context):
         try:
-            _obj, vset, data = self._prepare(context)
-            result = work(data, vset, self.emotion, self.name.strip(), self.holdout)
-        except LipSyncError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        return self._finish(context, result)
+            outcome = self._job(context).run()
+        except Exception as exc:  # noqa: BLE001 - reported, never a traceback in the UI
+            outcome = jobs.failure(self.bl_label, exc)
+        self.report({outcome.level}, outcome.message)
+        return {"FINISHED"} if outcome.finished else {"CANCELLED"}
 
     def invoke(self, context, _event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
         try:
-            _obj, vset, data = self._prepare(context)
-        except LipSyncError as exc:
-            self.report({"ERROR"}, str(exc))
+            jobs.ensure_free(jobs.LEARN)
+            job = self._job(context)
+        except Exception as exc:  # noqa: BLE001
+            outcome = jobs.failure(self.bl_label, exc)
+            self.report({outcome.level}, outcome.message)
             return {"CANCELLED"}
-        self._state = {"step": "align", "frac": 0.0, "result": None, "error": None, "cancel": False}
-        state = self._state
-
-        def progress(step, frac):
-            if state["cancel"]:
-                raise LipSyncError("cancelled")
-            state["step"], state["frac"] = step, frac
-
-        def target():
-            try:
-                state["result"] = work(data, vset, self.emotion, self.name.strip(), self.holdout, progress)
-            except LipSyncError as exc:
-                state["error"] = str(exc)
-            except Exception as exc:  # noqa: BLE001 - shown to the user, never lost in a thread
-                state["error"] = f"{type(exc).__name__}: {exc}"
-
-        self._t0 = time.perf_counter()
-        self._thread = threading.Thread(target=target, daemon=True)
-        self._thread.start()
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.25, window=context.window)
-        wm.progress_begin(0, 1000)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def modal(self, context, event):
-        wm = context.window_manager
-        if event.type == "ESC":
-            self._state["cancel"] = True
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        share = {"align": 0.3, "prepare": 0.1, "fit": 0.5, "evaluate": 0.1}
-        done = {"align": 0.0, "prepare": 0.3, "fit": 0.4, "evaluate": 0.9, "done": 1.0}
-        st = self._state
-        wm.progress_update(int(1000 * (done.get(st["step"], 0) + share.get(st["step"], 0) * st["frac"])))
-        context.workspace.status_text_set(f"Learning preset: {st['step']} {100 * st['frac']:.0f} % "
-                                          f"({time.perf_counter() - self._t0:.0f} s; Esc cancels)")
-        if self._thread.is_alive():
-            return {"RUNNING_MODAL"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-        if st["error"]:
-            self.report({"ERROR"}, st["error"])
-            return {"CANCELLED"}
-        return self._finish(context, st["result"])
+        return self.run_modal(context, job)
 
 
 classes = (LIPSYNC_OT_learn_preset,)

@@ -17,7 +17,7 @@ from bpy.props import FloatProperty, IntProperty, StringProperty
 from ..engine import mapping as mapping_mod
 from ..engine import presets, visemes
 from ..engine.errors import LipSyncError
-from . import compat, keying, run, sources
+from . import compat, jobs, keying, run, sources
 
 
 def _mesh(context, name: str):
@@ -74,7 +74,7 @@ def _fail(op, exc: Exception) -> set:
     return {"CANCELLED"}
 
 
-class LIPSYNC_OT_generate(bpy.types.Operator):
+class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
     """Lip-sync one sound strip or audio file onto the face mesh's shape keys"""
 
     bl_idname = "emotive_lipsync.generate"
@@ -95,34 +95,50 @@ class LIPSYNC_OT_generate(bpy.types.Operator):
     tolerance: FloatProperty(name="Tolerance", default=-1.0,
                              description="Key reduction tolerance; 0 keys every frame (-1: the panel's)")
 
-    def execute(self, context):
+    def _inputs(self, context):
+        """(mesh, clip, transcript, options): the properties, else the panel's settings."""
         scene = context.scene
         st = scene.emotive_lipsync
+        obj = _mesh(context, self.mesh)
+        run.check_mesh(obj)
+        options = _options(context, self.emotion, self.coarticulation, self.tolerance)
+        if self.filepath or (not self.strip and st.source == "FILE"):
+            path = self.filepath or st.audio_file
+            frame = self.frame if self.frame >= 0 else st.start_frame
+            clip = sources.file_clip(path, frame)
+        else:
+            name = self.strip or st.strip
+            strip = sources.strip_by_name(scene, name) if name else sources.active_sound_strip(scene)
+            if strip is None:
+                raise LipSyncError("no sound strip: add one to the sequencer, pick it in the Lip Sync "
+                                   "panel, or choose an audio file")
+            clip = sources.strip_clip(scene, strip)
+        text, _where = (sources.transcript(self.text) if self.text else
+                        sources.transcript(st.text, st.text_block, clip.audio_path))
+        return obj, clip, text, options
+
+    def execute(self, context):
         progress = _Progress(context)
         try:
-            obj = _mesh(context, self.mesh)
-            run.check_mesh(obj)
-            options = _options(context, self.emotion, self.coarticulation, self.tolerance)
-            if self.filepath or (not self.strip and st.source == "FILE"):
-                path = self.filepath or st.audio_file
-                frame = self.frame if self.frame >= 0 else st.start_frame
-                clip = sources.file_clip(path, frame)
-            else:
-                name = self.strip or st.strip
-                strip = sources.strip_by_name(scene, name) if name else sources.active_sound_strip(scene)
-                if strip is None:
-                    raise LipSyncError("no sound strip: add one to the sequencer, pick it in the Lip Sync "
-                                       "panel, or choose an audio file")
-                clip = sources.strip_clip(scene, strip)
-            text, _where = (sources.transcript(self.text) if self.text else
-                            sources.transcript(st.text, st.text_block, clip.audio_path))
-            summary = run.generate(scene, obj, clip, text, options, progress)
+            summary = run.generate(context.scene, *self._inputs(context), progress)
         except Exception as exc:  # noqa: BLE001 - reported, never a traceback in the UI
             return _fail(self, exc)
         finally:
             progress.end()
         self.report({"INFO"}, summary.message())
         return {"FINISHED"}
+
+    def invoke(self, context, _event):
+        """From the panel: the engine runs in the background (progress in the
+        status bar, Esc cancels); without a window, as ``execute``."""
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            jobs.ensure_free(jobs.GENERATE)
+            job = jobs.lipsync_job(context.scene, *self._inputs(context))
+        except Exception as exc:  # noqa: BLE001
+            return _fail(self, exc)
+        return self.run_modal(context, job)
 
 
 class LIPSYNC_OT_generate_all(bpy.types.Operator):
