@@ -222,42 +222,38 @@ class LIPSYNC_OT_clear(bpy.types.Operator):
 
 
 class LIPSYNC_OT_auto_map(bpy.types.Operator):
-    """Map the viseme set's visemes to the mesh's shape keys by their names (the default set, Oculus, \
-Preston Blair, Rhubarb and ARKit conventions)"""
+    """Map the visemes to the mesh's shape keys by their names, following the naming convention the mesh \
+uses (Ready Player Me / Oculus, VRChat, ARKit, VRoid / VRM, Character Creator, Daz, MakeHuman, Preston Blair, \
+Rhubarb ...)"""
 
     bl_idname = "emotive_lipsync.auto_map"
     bl_label = "Auto-Map Shape Keys"
     bl_options = {"REGISTER", "UNDO"}
 
     mesh: StringProperty(name="Mesh", description="Mesh name (empty: the panel's face, else the active object)")
-    viseme_set: StringProperty(name="Viseme Set", description="Built-in set name (empty: the mesh's; "
-                                                              "'guess': the set that maps the most)")
+    viseme_set: StringProperty(name="Viseme Set", description="Built-in set name, to map only to it (empty: the "
+                                                              "mesh's setting; 'guess' or 'AUTO': any)")
+    convention: StringProperty(name="Convention", description="Naming convention to use, by name (empty: the "
+                                                              "one the names follow)")
 
     def execute(self, context):
         try:
             obj = _mesh(context, self.mesh)
-            names = run.check_mesh(obj)
             st = obj.emotive_lipsync
-            if self.viseme_set == "guess":
-                found = mapping_mod.best_set([visemes.load(n) for n in visemes.builtin_names()], names,
-                                             prefer=st.viseme_set)
-                if found is not None:
-                    st.viseme_set = found[0].name
+            if self.viseme_set in ("guess", "AUTO"):
+                st.viseme_set = "AUTO"
             elif self.viseme_set:
                 if self.viseme_set not in visemes.builtin_names():
                     raise LipSyncError(f"{self.viseme_set!r} is not a built-in viseme set: "
                                        f"{', '.join(visemes.builtin_names())}")
                 st.viseme_set = self.viseme_set
-            vset = visemes.load(st.viseme_set_source())
-            mp = mapping_mod.auto_map(vset, names)
+            found = run.detect(obj, convention=self.convention or None)
+            run.apply(obj, found)
+            vset = run.mesh_viseme_set(obj)
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
-        if not mp:
-            self.report({"ERROR"}, f"none of the shape keys of {obj.name!r} match the viseme set {vset.name!r}")
-            return {"CANCELLED"}
-        st.set_mapping(mp)
-        missing = mapping_mod.unmapped(vset, mp)
-        msg = f"Mapped {len(mp)} of {len(vset.visemes)} visemes of {vset.name!r} on {obj.name}"
+        missing = mapping_mod.unmapped(vset, found.mapping)
+        msg = f"{obj.name}: {found.describe(vset)}"
         self.report({"WARNING"} if missing else {"INFO"},
                     msg + (f"; unmapped: {', '.join(missing)}" if missing else ""))
         return {"FINISHED"}
@@ -277,7 +273,7 @@ class LIPSYNC_OT_mapping_add(bpy.types.Operator):
             return {"CANCELLED"}
         st = obj.emotive_lipsync
         item = st.mapping.add()
-        item.viseme = visemes.load(st.viseme_set_source()).visemes[0]
+        item.viseme = run.mesh_viseme_set(obj).visemes[0]
         st.mapping_index = len(st.mapping) - 1
         return {"FINISHED"}
 

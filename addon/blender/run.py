@@ -6,11 +6,12 @@ plain values these functions take; nothing here reads the UI.
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 
+from ..engine import conventions, pipeline, visemes
 from ..engine import mapping as mapping_mod
-from ..engine import pipeline, visemes
 from ..engine.align import AlignSettings
 from ..engine.errors import LipSyncError
 from . import keying
@@ -63,30 +64,86 @@ def check_mesh(obj) -> list[str]:
     return [kb.name for kb in key.key_blocks]
 
 
-def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]]]:
-    """The mesh's viseme set and mapping; filled in automatically when the
-    user has not mapped anything."""
+def user_conventions_dir(create: bool = False) -> str | None:
+    """The folder where a studio keeps its own naming conventions."""
+    from .preset_ui import user_dir
+
+    return user_dir(create=create, kind="conventions") or None
+
+
+def all_conventions() -> list[conventions.Convention]:
+    folder = user_conventions_dir()
+    return conventions.load_all([folder] if folder else [])
+
+
+def detect(obj, viseme_set: str | None = None, convention: str | None = None) -> conventions.Match:
+    """The naming convention ``obj``'s shape keys follow, mapped onto them.
+
+    ``viseme_set`` (a built-in name or a file) limits the choice to that
+    set's conventions (default: the mesh's own setting; Automatic: any);
+    ``convention`` forces one by name.
+    """
     names = check_mesh(obj)
     st = obj.emotive_lipsync
-    vset = visemes.load(st.viseme_set_source())
+    source = viseme_set if viseme_set is not None else st.viseme_set_source()
+    sets = {n: visemes.load(n) for n in visemes.builtin_names()}
+    if source is not None and source not in sets:
+        own = visemes.load(source)                 # a studio's own set: matched by its own names
+        sets[own.name] = own
+        candidates = [conventions.from_viseme_set(own)]
+        chosen = own.name
+    else:
+        candidates = all_conventions()
+        chosen = source
+    if convention:
+        known = [c.name for c in candidates]
+        candidates = [c for c in candidates if c.name == convention]
+        if not candidates:
+            raise LipSyncError(f"{convention!r} is not a naming convention: {', '.join(known)}")
+        chosen = None
+    found = conventions.detect(names, candidates, sets, (obj.name, obj.data.name), chosen)
+    if found is None:
+        if convention:
+            raise LipSyncError(f"none of the shape keys of {obj.name!r} follow the convention {convention!r}")
+        if chosen:
+            raise LipSyncError(f"none of the shape keys of {obj.name!r} match the viseme set {chosen!r}: map them "
+                               "in the Lip Sync panel, or set Viseme Set to Automatic")
+        raise LipSyncError(f"none of the shape keys of {obj.name!r} follow a naming convention this add-on knows "
+                           f"({', '.join(c.label for c in candidates)}): map them in the Lip Sync panel's "
+                           "Visemes and Shape Keys list, or add a convention file")
+    return found
+
+
+def apply(obj, found: conventions.Match) -> None:
+    """Store a detected mapping, its convention and its closure rule on the mesh."""
+    st = obj.emotive_lipsync
+    st.set_mapping(found.mapping)
+    st.convention = found.convention.label
+    st.mapped_set = found.convention.viseme_set
+    st.closure_rule = json.dumps(found.closure.to_dict())
+
+
+def mesh_viseme_set(obj) -> visemes.VisemeSet:
+    """The viseme set the mesh's mapping is made for."""
+    st = obj.emotive_lipsync
+    source = st.viseme_set_source()
+    return visemes.load(source if source is not None else (st.mapped_set or "default"))
+
+
+def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]], conventions.Closure]:
+    """The mesh's viseme set, mapping and closure rule; detected and stored
+    when the user has not mapped anything."""
+    names = check_mesh(obj)
+    st = obj.emotive_lipsync
     mp = st.mapping_dict()
     if not mp:
-        # Nothing mapped yet: the set the mesh's names cover best (the one
-        # chosen for the mesh when it covers as much as any other).
-        found = mapping_mod.best_set([visemes.load(n) for n in visemes.builtin_names()]
-                                     if st.viseme_set != "FILE" else [vset], names, prefer=vset.name)
-        if found is None:
-            raise LipSyncError(f"none of the shape keys of {obj.name!r} match the viseme set {vset.name!r}: "
-                               "map them in the Lip Sync panel, or pick the viseme set the mesh was made for")
-        vset, mp = found
-        if st.viseme_set != "FILE":
-            st.viseme_set = vset.name
-        st.set_mapping(mp)
+        apply(obj, detect(obj))
+        mp = st.mapping_dict()
     missing = sorted({k for mix in mp.values() for k in mix} - set(names))
     if missing:
         raise LipSyncError(f"mesh {obj.name!r} has no shape key named {', '.join(map(repr, missing))}: "
                            "fix the mapping in the Lip Sync panel or press Auto-Map")
-    return vset, mp
+    return mesh_viseme_set(obj), mp, conventions.Closure.from_json(st.closure_rule)
 
 
 @dataclass
@@ -105,6 +162,7 @@ class Plan:
     fps: float
     mapping: dict[str, dict[str, float]]
     viseme_set: str | None                 # the engine's viseme set (None: the learned preset's own)
+    closure: conventions.Closure
     started: float = field(default_factory=time.perf_counter)
 
 
@@ -130,10 +188,11 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
                                f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
                                "has none of them")
         set_source = None
+        closure = conventions.Closure()
     else:
-        _vset, mp = mesh_mapping(obj)
-        set_source = obj.emotive_lipsync.viseme_set_source()
-    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source)
+        vset, mp, closure = mesh_mapping(obj)
+        set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
+    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure)
 
 
 def analyze(plan: Plan, progress=None) -> Analysis:
@@ -153,6 +212,7 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
     names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
+    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
