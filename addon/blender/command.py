@@ -88,7 +88,8 @@ def execute(argv: list[str]) -> int:
         preset = presets.load(args.emotion) if args.emotion else st.preset()
         tol = args.tolerance if args.tolerance is not None else (st.tolerance if st.reduce_keys else 0.0)
         options = run.Options(preset, args.coarticulation or st.coarticulation, tol,
-                              args.dictionary or (bpy.path.abspath(st.dictionary) if st.dictionary else None))
+                              args.dictionary or (bpy.path.abspath(st.dictionary) if st.dictionary else None),
+                              whole_character=st.whole_character)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)

@@ -35,7 +35,8 @@ def _options(context, emotion: str, coarticulation: str, tolerance: float) -> ru
     preset = presets.load(_preset_source(emotion)) if emotion else st.preset()
     tol = tolerance if tolerance >= 0 else (st.tolerance if st.reduce_keys else 0.0)
     dictionary = bpy.path.abspath(st.dictionary) if st.dictionary else None
-    return run.Options(preset, coarticulation or st.coarticulation, tol, dictionary)
+    return run.Options(preset, coarticulation or st.coarticulation, tol, dictionary,
+                       whole_character=st.whole_character)
 
 
 def _preset_source(name: str) -> str:
@@ -198,6 +199,11 @@ property, else the mesh its name starts with)"""
         return {"FINISHED"}
 
 
+def _shape_key_names(obj) -> list[str]:
+    key = obj.data.shape_keys
+    return [kb.name for kb in key.key_blocks[1:]] if key is not None else []
+
+
 class LIPSYNC_OT_clear(bpy.types.Operator):
     """Remove the lip-sync keys this add-on wrote on the mesh; keys you set yourself stay"""
 
@@ -213,11 +219,13 @@ class LIPSYNC_OT_clear(bpy.types.Operator):
             run.check_mesh(obj)
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
-        if not keying.lipsynced(obj):
+        # The character's other meshes keyed with the face (teeth ...) go too.
+        targets = [o for o in [obj] + run.companions(obj, _shape_key_names(obj)) if keying.lipsynced(o)]
+        if not targets:
             self.report({"WARNING"}, f"{obj.name!r} has no lip sync made by this add-on")
             return {"CANCELLED"}
-        counts = keying.clear(obj)
-        self.report({"INFO"}, f"Removed {counts['keys']} lip-sync keys from {obj.name}")
+        removed = sum(keying.clear(o)["keys"] for o in targets)
+        self.report({"INFO"}, f"Removed {removed} lip-sync keys from {', '.join(o.name for o in targets)}")
         return {"FINISHED"}
 
 

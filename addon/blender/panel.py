@@ -227,6 +227,7 @@ class LIPSYNC_PT_emotion(_Panel, bpy.types.Panel):
         layout.use_property_split = True
         layout.prop(st, "coarticulation")
         col = layout.column(heading="Keys")
+        col.prop(st, "whole_character")
         col.prop(st, "reduce_keys")
         sub = col.column()
         sub.active = st.reduce_keys

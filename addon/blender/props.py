@@ -132,6 +132,9 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                                    "phoneme class"),
         ("rules", "Rules", "Anticipation and carry-over rules per vowel/consonant context"),
     ])
+    whole_character: BoolProperty(name="Whole Character", default=True,
+                                  description="Also key the character's other meshes (teeth, tongue, beard) that "
+                                              "have the same shape keys and share the face's armature or parent")
     reduce_keys: BoolProperty(name="Reduce Keys", default=False,
                               description="Keep only the keys needed to stay within the tolerance")
     tolerance: FloatProperty(name="Tolerance", default=0.02, min=0.001, max=0.5, precision=3,

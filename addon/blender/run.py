@@ -10,6 +10,8 @@ import json
 import time
 from dataclasses import dataclass, field
 
+import bpy
+
 from ..engine import conventions, pipeline, visemes
 from ..engine import mapping as mapping_mod
 from ..engine.align import AlignSettings
@@ -27,6 +29,7 @@ class Options:
     tolerance: float = 0.0               # 0: a key on every frame
     dictionary: str | None = None
     workers: int = 0
+    whole_character: bool = True         # also key the character's other meshes with those shape keys
 
 
 @dataclass
@@ -42,11 +45,13 @@ class Summary:
     estimated_words: int
     words: int
     timings: dict = field(default_factory=dict)
+    also: list[str] = field(default_factory=list)   # the character's other meshes keyed with it
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
         again = " (replacing the previous lip sync)" if self.replaced else ""
-        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys, "
+        also = f" (and on {', '.join(self.also)})" if self.also else ""
+        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys{also}, "
                 f"frames {self.first_frame}-{self.last_frame}{again}{est}, in {self.seconds:.1f} s")
 
 
@@ -62,6 +67,37 @@ def check_mesh(obj) -> list[str]:
         raise LipSyncError(f"mesh {obj.name!r} has no shape keys to animate: add a Basis key and the mouth "
                            "shapes (see sample_rigs/ for examples)")
     return [kb.name for kb in key.key_blocks]
+
+
+def _rig_of(obj):
+    """What holds a character's meshes together: the armature deforming the
+    mesh, else its parent (None for a lone mesh)."""
+    for mod in obj.modifiers:
+        if mod.type == "ARMATURE" and mod.object is not None:
+            return mod.object
+    return obj.parent
+
+
+def companions(obj, shape_keys) -> list:
+    """The character's other meshes that carry some of ``shape_keys``:
+    teeth, tongue, beard or eyelashes with the face's viseme keys (Ready
+    Player Me, Character Creator and MakeHuman characters have them), which
+    must move with the face.  They share the face's armature or parent;
+    meshes sharing the face's own shape keys, and linked ones, are left out."""
+    rig = _rig_of(obj)
+    if rig is None:
+        return []
+    wanted = set(shape_keys)
+    out = []
+    for other in rig.children_recursive:
+        if other is obj or other.type != "MESH" or other.library is not None or other.data.library is not None:
+            continue
+        key = other.data.shape_keys
+        if key is None or key == obj.data.shape_keys or _rig_of(other) is not rig:
+            continue
+        if wanted & {kb.name for kb in key.key_blocks[1:]}:
+            out.append(other)
+    return sorted(out, key=lambda o: o.name)
 
 
 def user_conventions_dir(create: bool = False) -> str | None:
@@ -164,6 +200,7 @@ class Plan:
     viseme_set: str | None                 # the engine's viseme set (None: the learned preset's own)
     closure: conventions.Closure
     started: float = field(default_factory=time.perf_counter)
+    also: list[str] = field(default_factory=list)   # companion meshes to key too
 
 
 @dataclass
@@ -192,7 +229,9 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
-    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure)
+    driven = {k for mix in mp.values() for k in mix} | set(closure.relative)
+    also = [o.name for o in companions(obj, driven)] if options.whole_character else []
+    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also)
 
 
 def analyze(plan: Plan, progress=None) -> Analysis:
@@ -218,11 +257,21 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
                            "nothing was keyed")
     counts = keying.write(obj, names, values, clip.first_frame, plan.options.tolerance, clip.label)
+    also = []
+    for name in plan.also:
+        other = bpy.data.objects.get(name)
+        have = set(check_mesh(other)) if other is not None and other.type == "MESH" and \
+            other.data.shape_keys is not None else set()
+        cols = [j for j, k in enumerate(names) if k in have]
+        if cols:   # a companion deleted or changed meanwhile is simply left alone
+            keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
+                         plan.options.tolerance, clip.label)
+            also.append(name)
     t1 = time.perf_counter()
     words = result.alignment.words
     return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
                    len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
-                   len(words), {"engine": analysis.seconds, "keying": t1 - t0})
+                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also)
 
 
 def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:

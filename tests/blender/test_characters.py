@@ -131,3 +131,34 @@ def test_panel_says_which_convention(empty_scene):
     bpy.context.view_layer.objects.active = blob
     assert panel._convention_text(blob) == ""
     assert any("naming convention" in p for p in panel.problems(bpy.context))
+
+
+def _parented(obj, parent):
+    obj.parent = parent
+    return obj
+
+
+def test_the_characters_teeth_move_with_the_face_and_clear_with_it(empty_scene, pie_phones):
+    """A Ready Player Me avatar keeps viseme keys on Wolf3D_Head and
+    Wolf3D_Teeth under one armature: both are keyed, identically."""
+    keys, open_key = HEADS["ready_player_me"]
+    rig = bpy.data.objects.new("Armature", bpy.data.armatures.new("Armature"))
+    empty_scene.collection.objects.link(rig)
+    head = _parented(build_head("Wolf3D_Head", keys), rig)
+    teeth = _parented(build_head("Wolf3D_Teeth", {k: {"jaw": 1.0} for k in ("viseme_aa", "viseme_O", "viseme_PP")}),
+                      rig)
+    stranger = build_head("Other_Head", {"viseme_aa": {"jaw": 1.0}})  # same names, another character
+    add_strip(empty_scene, "line", PIE, frame=1)
+    assert bpy.ops.emotive_lipsync.generate(mesh="Wolf3D_Head", text=PIE_TEXT) == {"FINISHED"}
+    from conftest import fcurve_values
+
+    assert keyed_shape_keys(teeth) == {"viseme_aa", "viseme_O", "viseme_PP"}
+    for name in ("viseme_aa", "viseme_O", "viseme_PP"):
+        assert np.array_equal(fcurve_values(teeth, name)[1], fcurve_values(head, name)[1])
+    assert keyed_shape_keys(stranger) == set()
+    assert bpy.ops.emotive_lipsync.clear(mesh="Wolf3D_Head") == {"FINISHED"}
+    assert keyed_shape_keys(teeth) == set() and keyed_shape_keys(head) == set()
+    # Turned off, only the face is keyed.
+    empty_scene.emotive_lipsync.whole_character = False
+    assert bpy.ops.emotive_lipsync.generate(mesh="Wolf3D_Head", text=PIE_TEXT) == {"FINISHED"}
+    assert keyed_shape_keys(teeth) == set() and "viseme_aa" in keyed_shape_keys(head)
