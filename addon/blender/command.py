@@ -112,7 +112,7 @@ def execute(argv: list[str]) -> int:
                 jobs.append((mesh, clip, None))
         strips = [sources.strip_by_name(scene, n) for n in args.strip]
         if args.all_strips or (not args.strip and not args.audio):
-            strips = sorted(compat.sound_strips(scene), key=lambda s: (s.frame_final_start, s.channel))
+            strips = compat.sound_strips_in_order(scene)
             if not strips:
                 raise LipSyncError(f"scene {scene.name!r} has no sound strips")
         for strip in strips:

@@ -158,7 +158,7 @@ property, else the mesh its name starts with)"""
 
     def execute(self, context):
         scene = context.scene
-        strips = sorted(compat.sound_strips(scene), key=lambda s: (s.frame_final_start, s.channel))
+        strips = compat.sound_strips_in_order(scene)
         if not strips:
             self.report({"ERROR"}, "the sequencer has no sound strips")
             return {"CANCELLED"}

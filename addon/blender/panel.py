@@ -56,11 +56,6 @@ def _convention_text(obj) -> str:
         return ""
 
 
-def _strips_prop():
-    """The sequence editor's collection of every strip (renamed in 4.4)."""
-    return "strips_all" if "strips_all" in bpy.types.SequenceEditor.bl_rna.properties else "sequences_all"
-
-
 def problems(context) -> list[str]:
     """What stops Generate from working, in words an animator reads."""
     st = context.scene.emotive_lipsync
@@ -142,7 +137,7 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         if st.source == "STRIP":
             ed = context.scene.sequence_editor
             if ed is not None:
-                col.prop_search(st, "strip", ed, _strips_prop(), text="Strip")
+                col.prop_search(st, "strip", ed, compat.ALL_STRIPS_PROPERTY, text="Strip")
             else:
                 col.label(text="The sequencer is empty", icon="INFO")
         else:
