@@ -71,8 +71,14 @@ def problems(context) -> list[str]:
             if ost.mapping_dict():
                 missing = mapping_mod.unmapped(run.mesh_viseme_set(obj), ost.mapping_dict())
             else:
-                found = _detected(obj)
-                missing = mapping_mod.unmapped(visemes.load(found.convention.viseme_set), found.mapping)
+                try:
+                    found = _detected(obj)
+                except LipSyncError:
+                    found = None
+                    out.append(f"The shape keys of {obj.name} follow no known naming convention: map them below, "
+                               "or pick their viseme set")
+                missing = mapping_mod.unmapped(visemes.load(found.convention.viseme_set), found.mapping) \
+                    if found is not None else []
             if missing:
                 out.append(f"Unmapped visemes: {', '.join(missing)}")
         except LipSyncError as exc:
