@@ -1,15 +1,27 @@
-"""The sample job: build the two sample characters, lip-sync the shipped
-line onto both headless, save a .blend and render a contact sheet.
+"""The sample job: build the human sample head in its two variants,
+lip-sync the shipped line onto both headless, save a .blend, render a
+contact sheet of labelled phones and a video with the sound.
 
     .venv/bin/python sample_rigs/demo.py [OUT_DIR]      (default: out/)
 
-Ada speaks happily with the rule model, Kit neutrally with dominance
-functions, so the two show the presets' and the models' difference.  The
-add-on runs from this checkout.
+Writes ``sample.blend`` (press play), ``sample_contact_sheet.png`` (twelve
+frames at chosen phones: lips closed on /p b m/, lower lip to the upper
+teeth on /f v/, rounded and open vowels; the ARKit head on the left of each
+frame, the Ready Player Me one on the right) and ``sample.mp4`` (the whole
+line with its sound, where this Blender can write video).
+
+The ARKit head ("Human") is lip-synced through the operator the Generate
+button runs, the Ready Player Me head ("HumanRPM") through the batch command
+(``blender -b ... --command lipsync``), which also saves the file; both with
+nothing set up, so the naming convention is recognised on each.  The
+add-on runs from this checkout; the head's assets are fetched by
+``human.py`` (once, into its cache folder).
 """
 
 from __future__ import annotations
 
+import contextlib
+import math
 import os
 import sys
 import time
@@ -21,22 +33,120 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SPEECH = os.path.join(HERE, "speech", "hello.wav")
 
+HEADS = (("Human", "arkit", "ARKit 52 blendshapes"), ("HumanRPM", "rpm", "Ready Player Me visemes"))
+SPACING = 0.2             # m between the two heads
+VIEW = (0.4, 0.2)         # m of the front view (orthographic): both faces, eyes to chin
+TILE = (800, 400)         # pixels of one frame of the sheet
+VIDEO = (640, 320)        # pixels of a frame of the video
 
-def contact_sheet(scene, frames, path, cols=6):
-    """Render ``frames`` with Workbench and tile them into one PNG."""
-    tiles = []
-    tmp = os.path.join(os.path.dirname(path), "_frame.png")
-    for f in frames:
-        scene.frame_set(f)
-        scene.render.filepath = tmp
+#: The phones shown, in the order of the sheet: (ARPAbet phone, what it shows).
+#: Each is taken at its first occurrence in the line after the ones before
+#: it of the same kind, so the sheet spreads over the whole line.
+SHOWN = (
+    ("M", "lips closed"), ("B", "lips closed"), ("P", "lips closed"), ("M", "lips closed"),
+    ("V", "lower lip to upper teeth"), ("V", "lower lip to upper teeth"),
+    ("OW", "rounded"), ("UW", "rounded"), ("OY", "rounded"),
+    ("AA", "open"), ("AE", "open"), ("AY", "open"),
+)
+VOWELS = {"OW", "UW", "OY", "AA", "AE", "AY"}
+
+
+def _material(name, rgba):
+    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    mat.diffuse_color = rgba
+    return mat
+
+
+def _text(name, body, location, size):
+    curve = bpy.data.curves.new(name, "FONT")
+    curve.body, curve.size, curve.align_x, curve.align_y = body, size, "CENTER", "CENTER"
+    obj = bpy.data.objects.new(name, curve)
+    obj.location, obj.rotation_euler = location, (math.radians(90), 0, 0)
+    obj.data.materials.append(_material("Label", (0.05, 0.05, 0.05, 1)))
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _band(name, z0, z1):
+    """A white strip across the view in front of the heads, for text."""
+    mesh = bpy.data.meshes.new(name)
+    w, y = VIEW[0], -0.15
+    mesh.from_pydata([(-w, y, z0), (w, y, z0), (w, y, z1), (-w, y, z1)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(_material("Band", (1, 1, 1, 1)))
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def build_scene():
+    """The two heads side by side, an orthographic front camera framing
+    their faces, a white strip with the label line above them and one with
+    their captions below, ready to render with Workbench."""
+    import human
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bottom, top = 0.01, 0.01 + VIEW[1]
+    strip = 0.12 * VIEW[1]
+    heads = {}
+    for k, (name, variant, caption) in enumerate(HEADS):
+        x = (k - 0.5) * SPACING
+        heads[name] = human.build(name, variant, (x, 0.0, 0.0))
+        _text(f"{name}_caption", caption, (x, -0.16, bottom + strip / 2), 0.45 * strip)
+    _band("CaptionStrip", bottom - 0.01, bottom + strip)
+    _band("LabelStrip", top - strip, top + 0.01)
+    label = _text("Label", "", (0.0, -0.16, top - strip / 2), 0.5 * strip)
+    human.credit_scene(scene)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.type, cam.data.ortho_scale = "ORTHO", VIEW[0]
+    cam.location = (0.0, -1.0, (bottom + top) / 2)
+    cam.rotation_euler = (math.radians(90), 0, 0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.color_type = "MATERIAL"
+    scene.display.shading.light = "STUDIO"
+    scene.display.shading.show_cavity = True
+    scene.view_settings.view_transform = "Standard"
+    scene.world = bpy.data.worlds.new("Backdrop")
+    scene.world.color = (0.86, 0.87, 0.89)
+    scene.render.resolution_x, scene.render.resolution_y = TILE
+    scene.render.fps, scene.render.fps_base = 30, 1.0
+    return heads, label
+
+
+@contextlib.contextmanager
+def _quiet():
+    """Blender's per-frame render messages on stdout, silenced."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+    try:
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def render_pixels(scene) -> np.ndarray:
+    """The current frame rendered, as (h, w, 4) floats, bottom row first."""
+    tmp = os.path.join(bpy.app.tempdir, "_frame.png")
+    scene.render.filepath = tmp
+    with _quiet():
         bpy.ops.render.render(write_still=True)
-        img = bpy.data.images.load(tmp)
-        w, h = img.size
-        px = np.empty(w * h * 4, dtype=np.float32)
-        img.pixels.foreach_get(px)
-        tiles.append(px.reshape(h, w, 4))
-        bpy.data.images.remove(img)
+    img = bpy.data.images.load(tmp)
+    w, h = img.size
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
     os.remove(tmp)
+    return px.reshape(h, w, 4)
+
+
+def save_sheet(tiles, path, cols=4):
+    """Tile rendered frames, first on top, into one PNG."""
     h, w = tiles[0].shape[:2]
     rows = (len(tiles) + cols - 1) // cols
     sheet = np.ones((rows * h, cols * w, 4), dtype=np.float32)
@@ -44,6 +154,8 @@ def contact_sheet(scene, frames, path, cols=6):
         r, c = divmod(i, cols)
         # Image rows run bottom-up in Blender: the first tile goes on top.
         sheet[(rows - 1 - r) * h:(rows - r) * h, c * w:(c + 1) * w] = t
+        sheet[(rows - 1 - r) * h:(rows - r) * h, c * w:c * w + 1, :3] = 0.6     # thin grid lines
+        sheet[(rows - 1 - r) * h:(rows - 1 - r) * h + 1, c * w:(c + 1) * w, :3] = 0.6
     out = bpy.data.images.new("contact_sheet", cols * w, rows * h, alpha=True)
     out.pixels.foreach_set(sheet.ravel())
     out.filepath_raw = path
@@ -52,42 +164,124 @@ def contact_sheet(scene, frames, path, cols=6):
     bpy.data.images.remove(out)
 
 
+def chosen_frames(scene, alignment, first, face):
+    """(frame, label) for each phone of :data:`SHOWN`, the line starting on
+    frame ``first``: a consonant's middle frame; a vowel's frame where the
+    mouth of ``face`` (an ARKit head) is most open or rounded."""
+    keys = face.data.shape_keys.key_blocks
+    out, used = [], set()
+    fps = scene.render.fps / scene.render.fps_base
+    for phone, what in SHOWN:
+        k, p = next(((k, p) for k, p in enumerate(alignment.phones) if p.phone == phone and k not in used),
+                    (None, None))
+        if p is None:
+            continue
+        used.add(k)
+        span = range(first + int(np.ceil(p.start * fps)), first + int(np.floor(p.end * fps)) + 1)
+        frame = first + int(round((p.start + p.end) / 2 * fps))
+        if phone in VOWELS and len(span):
+            def shape(f):
+                scene.frame_set(f)
+                return sum(keys[n].value for n in ("jawOpen", "mouthFunnel", "mouthPucker"))
+            frame = max(span, key=shape)
+        word = alignment.words[p.word_index].text
+        out.append((frame, f"/{phone.lower()}/ in \"{word}\" ({what}), frame {frame}"))
+    return sorted(out)
+
+
+def phone_labels(alignment, first, fps):
+    """Per frame from ``first``: the word and phone being spoken."""
+    def label(frame):
+        t = (frame - first) / fps
+        p = next((p for p in alignment.phones if p.start <= t < p.end), None)
+        if p is None:
+            return ""
+        return f"\"{alignment.words[p.word_index].text}\"  /{p.phone.lower()}/"
+    return label
+
+
+def write_video(scene, path, label=None, text=None) -> bool:
+    """The whole line as an MP4 (H.264, AAC sound), if this Blender has
+    FFmpeg; ``label`` (frame -> text) is shown in the text object ``text``."""
+    if not bpy.app.build_options.codec_ffmpeg:
+        return False
+
+    def on_frame(sc, *_args):
+        text.data.body = label(sc.frame_current)
+
+    if label is not None:
+        bpy.app.handlers.frame_change_pre.append(on_frame)
+    scene.render.resolution_x, scene.render.resolution_y = VIDEO
+    scene.display.render_aa = "FXAA"         # one sample a frame: five times faster than the default
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):       # Blender 5.0: image, multilayer or video
+        settings.media_type = "VIDEO"
+    settings.file_format = "FFMPEG"
+    ff = scene.render.ffmpeg
+    ff.format, ff.codec = "MPEG4", "H264"
+    ff.constant_rate_factor = "MEDIUM"
+    ff.audio_codec, ff.audio_channels, ff.audio_mixrate = "AAC", "MONO", 44100
+    scene.render.filepath = path
+    try:
+        with _quiet():
+            bpy.ops.render.render(animation=True)
+    finally:
+        if label is not None:
+            bpy.app.handlers.frame_change_pre.remove(on_frame)
+    return os.path.isfile(path)
+
+
 def main(argv):
     out_dir = os.path.abspath(argv[0] if argv else os.path.join(ROOT, "out"))
     os.makedirs(out_dir, exist_ok=True)
     sys.path.insert(0, ROOT)
     sys.path.insert(0, HERE)
     import addon
-    import build_rigs
-    from addon.blender import command, compat
+    from addon.blender import command, compat, sources
+    from addon.engine import pipeline
 
     t0 = time.perf_counter()
-    build_rigs.build_scene()
+    heads, label = build_scene()
+    bpy.context.preferences.filepaths.save_version = 0   # no sample.blend1 beside the file
     addon.register()
     scene = bpy.context.scene
     text = bpy.data.texts.new("hello.txt")
     with open(os.path.splitext(SPEECH)[0] + ".txt", encoding="utf-8") as fh:
-        text.from_string(fh.read())
+        transcript = fh.read()
+    text.from_string(transcript)
     # Strips named after their meshes: "Generate for All Strips" and the
     # command line find the face by the name.
-    ada_strip = compat.new_sound_strip(scene, "Ada_hello", SPEECH, 1, 1)
-    kit_strip = compat.new_sound_strip(scene, "Kit_hello", SPEECH, 2, 1)
-    ada_strip["lipsync_text"] = kit_strip["lipsync_text"] = text.name
-    scene.frame_start, scene.frame_end = 1, max(ada_strip.frame_final_end, kit_strip.frame_final_end)
+    strips = {name: compat.new_sound_strip(scene, f"{name}_hello", SPEECH, k + 1, 1)
+              for k, name in enumerate(heads)}
+    for s in strips.values():
+        s["lipsync_text"] = text.name
+    strips["HumanRPM"].volume = 0.0   # the same line: heard once
+    scene.frame_start, scene.frame_end = 1, max(s.frame_final_end for s in strips.values())
     blend = os.path.join(out_dir, "sample.blend")
-    # Ada through the operator the Generate button runs, Kit through the
-    # batch command (`blender -b ... --command lipsync`), which also saves.
-    if bpy.ops.emotive_lipsync.generate(strip="Ada_hello", mesh="Ada", emotion="happy",
-                                        coarticulation="rules") != {"FINISHED"}:
+    if bpy.ops.emotive_lipsync.generate(strip="Human_hello", mesh="Human") != {"FINISHED"}:
         return 1
-    status = command.execute(["--strip", "Kit_hello", "--emotion", "neutral", "--output", blend])
+    status = command.execute(["--strip", "HumanRPM_hello", "--output", blend])
     if status:
         return status
+    for obj in heads.values():
+        print(f"{obj.name}: {obj.emotive_lipsync.convention}")
+
+    alignment = pipeline.align_audio(sources.decode(SPEECH), transcript)
+    tiles = []
+    for frame, text_ in chosen_frames(scene, alignment, 1, heads["Human"]):
+        scene.frame_set(frame)
+        label.data.body = text_
+        tiles.append(render_pixels(scene))
+    label.data.body = ""
     sheet = os.path.join(out_dir, "sample_contact_sheet.png")
-    first, last = scene.frame_start, scene.frame_end
-    contact_sheet(scene, [int(f) for f in np.linspace(first + 8, last - 8, 12)], sheet)
+    save_sheet(tiles, sheet)
     print(f"wrote {blend}")
-    print(f"wrote {sheet} (12 frames from {first}-{last})")
+    print(f"wrote {sheet} ({len(tiles)} labelled frames)")
+    video = os.path.join(out_dir, "sample.mp4")
+    if write_video(scene, video, phone_labels(alignment, 1, scene.render.fps / scene.render.fps_base), label):
+        print(f"wrote {video} (frames {scene.frame_start}-{scene.frame_end}, with sound)")
+    else:
+        print("no video: this Blender has no FFmpeg")
     print(f"demo took {time.perf_counter() - t0:.1f} s")
     return 0
 

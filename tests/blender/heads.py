@@ -102,9 +102,16 @@ def _coords(obj, depsgraph) -> np.ndarray:
 
 
 class Opening:
-    """The mouth opening of ``obj`` along its open shape ``open_key``."""
+    """The mouth opening of ``obj`` along its open shape ``open_key``.
 
-    def __init__(self, obj, open_key: str, share: float = 0.8):
+    ``among``: the vertices the lips are looked for in (all by default).  On
+    a sculpted head the open shape also carries the chin, the lower teeth
+    and the tongue, sometimes further than the lower lip: there ``among``
+    is the lips' own vertices (a vertex group), so the most-moved vertices
+    are the lower lip's and the still ones facing them the upper lip's.
+    """
+
+    def __init__(self, obj, open_key: str, share: float = 0.8, among=None):
         kb = obj.data.shape_keys.key_blocks
         n = len(obj.data.vertices)
         basis, opened = np.empty(3 * n), np.empty(3 * n)
@@ -113,12 +120,17 @@ class Opening:
         self.obj, self.basis = obj, basis.reshape(-1, 3)
         delta = opened.reshape(-1, 3) - self.basis
         size = np.linalg.norm(delta, axis=1)
+        if among is not None:
+            outside = np.ones(n, dtype=bool)
+            outside[np.asarray(among, dtype=int)] = False
+            size[outside] = np.nan
+        top = np.nanmax(size)
         # The open shape's most-moved vertices (the lower lip) ...
-        self.lower = np.flatnonzero(size >= share * size.max())
+        self.lower = np.flatnonzero(size >= share * top)
         self.dir = delta[self.lower].mean(axis=0)
         self.dir /= np.linalg.norm(self.dir)
         # ... and, for each, the nearest vertex the open shape hardly moves (the upper lip facing it).
-        still = np.flatnonzero(size < 0.2 * size.max())
+        still = np.flatnonzero(size < 0.2 * top)
         dist = np.linalg.norm(self.basis[self.lower][:, None, :] - self.basis[still][None, :, :], axis=2)
         self.upper = still[np.argmin(dist, axis=1)]
         self.unit = self._gap(delta)
@@ -149,10 +161,11 @@ def span_frames(p, first=1):
     return [first + f for f in range(lo, hi + 1)]
 
 
-def measure(obj, open_key, phones, first=1):
+def measure(obj, open_key, phones, first=1, among=None):
     """(openings at each /p b m/, peak opening of each open vowel, lowest
-    opening anywhere) of a line keyed from frame ``first``."""
-    opening = Opening(obj, open_key)
+    opening anywhere) of a line keyed from frame ``first``; ``among`` as
+    for :class:`Opening`."""
+    opening = Opening(obj, open_key, among=among)
     closed = [max(abs(v) for v in opening.track(span_frames(p, first))) for p in phones if p.phone in BILABIALS]
     # Vowels of two frames or more: a 50 ms vowel between two closures (the
     # "u" of a fast "pumpkin") barely opens the lips at 30 fps, as in life.
