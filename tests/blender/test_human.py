@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 import shutil
 from importlib import import_module
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -37,7 +38,7 @@ import human
 
 PIE = os.path.join(FIXTURES, "fast_bilabials.wav")
 LINES = {  # audio -> transcript
-    SAMPLE: open(os.path.splitext(SAMPLE)[0] + ".txt", encoding="utf-8").read(),
+    SAMPLE: Path(SAMPLE).with_suffix(".txt").read_text(encoding="utf-8"),
     PIE: "Maybe Bobby makes pumpkin pie, baby.",
 }
 SECOND_START = 301   # the second line is keyed from this frame
