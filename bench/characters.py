@@ -28,6 +28,7 @@ import numpy as np
 from common import ROOT
 
 sys.path.insert(0, str(ROOT / "tests" / "blender"))
+sys.path.insert(0, str(ROOT / "sample_rigs"))
 from heads import FPS, HEADS, build_head, measure  # noqa: E402
 
 TEXT = "Maybe Bobby makes pumpkin pie, baby."

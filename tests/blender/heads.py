@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import bpy
 import numpy as np
+from human import ARKIT_52  # ARKit's 52 blendshape names (sample_rigs/human.py)
 
 COLUMNS = np.linspace(-1.0, 1.0, 21)
 # (role, height): upper lip outer and inner edge, lower lip inner and outer edge, chin.
@@ -186,17 +187,6 @@ OCULUS_POSES = {
     "ih": {"jaw": 0.3, "spread": 0.7}, "oh": {"jaw": 0.6, "round": 0.7}, "ou": {"jaw": 0.15, "round": 1.0},
 }
 
-ARKIT_52 = [
-    "browDownLeft", "browDownRight", "browInnerUp", "browOuterUpLeft", "browOuterUpRight", "cheekPuff",
-    "cheekSquintLeft", "cheekSquintRight", "eyeBlinkLeft", "eyeBlinkRight", "eyeLookDownLeft",
-    "eyeLookDownRight", "eyeLookInLeft", "eyeLookInRight", "eyeLookOutLeft", "eyeLookOutRight", "eyeLookUpLeft",
-    "eyeLookUpRight", "eyeSquintLeft", "eyeSquintRight", "eyeWideLeft", "eyeWideRight", "jawForward", "jawLeft",
-    "jawOpen", "jawRight", "mouthClose", "mouthDimpleLeft", "mouthDimpleRight", "mouthFrownLeft",
-    "mouthFrownRight", "mouthFunnel", "mouthLeft", "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft",
-    "mouthPressRight", "mouthPucker", "mouthRight", "mouthRollLower", "mouthRollUpper", "mouthShrugLower",
-    "mouthShrugUpper", "mouthSmileLeft", "mouthSmileRight", "mouthStretchLeft", "mouthStretchRight",
-    "mouthUpperUpLeft", "mouthUpperUpRight", "noseSneerLeft", "noseSneerRight", "tongueOut",
-]
 ARKIT_POSES = {
     "jawOpen": {"jaw": 1.0}, "mouthClose": {"close": 1.0}, "mouthFunnel": {"funnel": 1.0},
     "mouthPucker": {"round": 1.0}, "mouthSmileLeft": {"smile": 0.5}, "mouthSmileRight": {"smile": 0.5},
