@@ -15,6 +15,11 @@ runs 4.2, 4.5, 5.0 and 5.2).  Two things here depend on the Blender:
   strips; :func:`add_strip` then pastes a strip read from a .blend instead
   (see :func:`_paste_sound_strip`), and the tests that need the ``aud``
   module themselves are skipped there (:data:`NEEDS_AUD`).
+* PyPI's ``bpy`` 4.2 and 4.3 crash (segmentation fault) while Python shuts
+  down once any add-on class with a Python method was registered (an
+  operator, a property group with a method; even after unregistering it);
+  4.4 fixed it.  There the test process ends right after pytest's report,
+  with pytest's exit status (:func:`pytest_unconfigure`).
 """
 
 from __future__ import annotations
@@ -68,6 +73,26 @@ def pytest_collection_modifyitems(config, items):
         if why:
             item.add_marker(pytest.mark.skip(
                 reason=f"this bpy {bpy.app.version_string} is built without Audaspace (no aud module); the test {why}"))
+
+
+#: This bpy crashes at interpreter shutdown after an add-on was registered.
+CRASHES_AT_EXIT = not bpy.app.binary_path and bpy.app.version < (4, 4, 0)
+_exit_status = 0
+
+
+def pytest_sessionfinish(session, exitstatus):
+    global _exit_status
+    _exit_status = int(exitstatus)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config):
+    if CRASHES_AT_EXIT:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        shutil.rmtree(_TMP, True)
+        shutil.rmtree(_USER, True)
+        os._exit(_exit_status)
 
 
 @pytest.fixture(scope="session")
