@@ -92,6 +92,14 @@ def strip_frames(strip) -> tuple[int, int]:
     return strip.frame_final_start, strip.frame_final_end
 
 
+def trim_strip_start(strip, frame: int) -> None:
+    """Hide the strip's sound before ``frame`` (as dragging its left handle does)."""
+    if STRIP_HANDLES:
+        strip.left_handle = frame
+    else:
+        strip.frame_final_start = frame
+
+
 def strip_content_start(strip) -> float:
     """The frame the strip's sound starts on (before any trim)."""
     return strip.content_start if STRIP_HANDLES else strip.frame_start
