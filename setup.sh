@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Build the project's environment in .venv/ and run the sample job.
-#   ./setup.sh               environment, then the sample: two rigs lip-synced
-#                            headless -> out/sample.blend, out/sample_contact_sheet.png,
+#   ./setup.sh               environment, then the sample: the human head (ARKit and
+#                            Ready Player Me variants) lip-synced headless ->
+#                            out/sample.blend, out/sample_contact_sheet.png, out/sample.mp4,
 #                            and the engine's own output -> out/hello.json, out/hello.csv
 #   ./setup.sh --no-run      environment only
 #   ./setup.sh --test-envs   environment and the other Blenders the extension is
