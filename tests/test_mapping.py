@@ -31,7 +31,7 @@ def test_basis_is_never_driven():
 def test_arkit_mix_keeps_the_blendshapes_the_mesh_has():
     vs = visemes.load("arkit")
     mp = mapping.auto_map(vs, ARKIT_NAMES)
-    assert mp["PP"] == {"mouthClose": 1.0}  # mouthPressLeft/Right are not on this mesh
+    assert mp["PP"] == {"mouthClose": 1.0, "mouthRollLower": 0.1}  # mouthPress*, mouthRollUpper: not on this mesh
     assert mp["ou"] == {"jawOpen": 0.15, "mouthPucker": 0.9, "mouthFunnel": 0.3}
     assert "eyeBlinkLeft" not in {k for mix in mp.values() for k in mix}
     assert mp["FF"] == {"mouthRollLower": 0.7, "jawOpen": 0.05}
