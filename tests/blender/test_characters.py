@@ -162,3 +162,22 @@ def test_the_characters_teeth_move_with_the_face_and_clear_with_it(empty_scene, 
     empty_scene.emotive_lipsync.whole_character = False
     assert bpy.ops.emotive_lipsync.generate(mesh="Wolf3D_Head", text=PIE_TEXT) == {"FINISHED"}
     assert keyed_shape_keys(teeth) == set() and "viseme_aa" in keyed_shape_keys(head)
+
+
+def test_a_studios_own_viseme_set_file_maps_by_its_own_names(empty_scene, tmp_path):
+    """A viseme set file of the studio's own: its viseme names (and aliases)
+    are the names Auto-Map looks for."""
+    import json
+
+    doc = json.loads(open(import_module(MODULE + ".engine.visemes").DATA.joinpath("preston_blair.json"),
+                          encoding="utf-8").read())
+    doc["name"] = "studio_chart"
+    doc["aliases"] = {"AI": ["wide_open"]}
+    path = tmp_path / "studio_chart.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    obj = build_head("Toon", {"rest": {}, "MBP": {"press": 1.0}, "wide_open": {"jaw": 1.0}, "O": {"round": 1.0}})
+    obj.emotive_lipsync.viseme_set, obj.emotive_lipsync.viseme_set_file = "FILE", str(path)
+    assert bpy.ops.emotive_lipsync.auto_map(mesh="Toon") == {"FINISHED"}
+    mapping = obj.emotive_lipsync.mapping_dict()
+    assert mapping["AI"] == {"wide_open": 1.0} and mapping["MBP"] == {"MBP": 1.0} and mapping["O"] == {"O": 1.0}
+    assert import_module(MODULE + ".blender.run").mesh_viseme_set(obj).name == "studio_chart"
