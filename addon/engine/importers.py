@@ -16,9 +16,11 @@ unknown label raises :class:`UnknownLabelError` naming it and where it is.
 
 from __future__ import annotations
 
+import bisect
 import csv
 import io
 import json
+import math
 import re
 from pathlib import Path
 
@@ -47,6 +49,58 @@ def _read_text(path: Path) -> str:
         return raw.decode("latin-1")
 
 
+#: How far past the end of the audio an imported time may lie (s): rounding
+#: and a last frame or a trailing silence interval may overshoot a little.
+END_TOLERANCE = 0.5
+
+
+class _Times:
+    """Checks the times read from one alignment file, in file order: each a
+    finite, non-negative number, no interval ending before it starts, starts
+    never going back (within a tier), nothing past the end of the audio.
+    Every message names the file and the line (or cue) and the time."""
+
+    def __init__(self, path: Path, audio_duration: float | None):
+        self.path = path
+        self.limit = None if audio_duration is None else float(audio_duration) + END_TOLERANCE
+        self.audio_duration = audio_duration
+        self.last = -math.inf
+
+    def restart(self) -> None:
+        """A new tier or voice: its times start again from 0."""
+        self.last = -math.inf
+
+    def fail(self, where: str, problem: str):
+        raise ImportFormatError(f"{self.path}, {where}: {problem}")
+
+    def time(self, value, where: str, what: str = "time") -> float:
+        try:
+            t = float(value)
+        except (TypeError, ValueError, OverflowError):
+            self.fail(where, f"{what} {value!r} is not a number")
+        if not math.isfinite(t):
+            self.fail(where, f"{what} {value!r} is not a finite number")
+        if t < 0:
+            self.fail(where, f"{what} {t:g} s is negative")
+        if self.limit is not None and t > self.limit:
+            self.fail(where, f"{what} {t:g} s is past the end of the audio ({self.audio_duration:.3f} s)")
+        return t
+
+    def span(self, a, b, where: str, where_end: str | None = None) -> tuple[float, float]:
+        a = self.time(a, where, "start")
+        b = self.time(b, where_end or where, "end")
+        if b < a:
+            self.fail(where, f"ends ({b:g} s) before it starts ({a:g} s)")
+        self.order(a, where)
+        return a, b
+
+    def order(self, a: float, where: str) -> None:
+        if a < self.last - 1e-6:
+            self.fail(where, f"time {a:g} s comes before the previous one ({self.last:g} s): "
+                             "the entries are out of order")
+        self.last = a
+
+
 def _check(path) -> Path:
     path = Path(path)
     if not path.is_file():
@@ -56,15 +110,21 @@ def _check(path) -> Path:
 
 # --- TextGrid ---------------------------------------------------------------
 
-def parse_textgrid(text: str, source: str = "TextGrid") -> dict[str, list[tuple[float, float, str]]]:
+def parse_textgrid(text: str, source: str = "TextGrid", audio_duration: float | None = None
+                   ) -> dict[str, list[tuple[float, float, str]]]:
     """Parse a TextGrid (long or short format) into {tier name: intervals}.
-    Point tiers are skipped."""
+    Point tiers are skipped.  Every time is checked (finite, not negative, in
+    order within its tier, not past ``audio_duration`` if given); an error
+    names the line."""
     # Tokenise: quoted strings (with "" escapes), numbers, and bare flags.
     # Indices such as "item [1]:" are skipped; they are not values.
-    tokens = re.findall(
-        r'"((?:[^"]|"")*)"|(\[\d*\])|(-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?)|(<exists>|<absent>)', text)
+    newlines = [m.start() for m in re.finditer("\n", text)]
     values: list[object] = []
-    for s, index, num, flag in tokens:
+    lines: list[int] = []  # the line each value is on
+    for m in re.finditer(
+            r'"((?:[^"]|"")*)"|(\[\d*\])|([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?'
+            r'|(?<![A-Za-z])[-+]?(?:inf(?:inity)?|nan)(?![A-Za-z]))|(<exists>|<absent>)', text, re.IGNORECASE):
+        s, index, num, flag = m.groups()
         if index:
             continue
         if num:
@@ -73,6 +133,8 @@ def parse_textgrid(text: str, source: str = "TextGrid") -> dict[str, list[tuple[
             values.append(flag)
         else:
             values.append(s.replace('""', '"'))
+        lines.append(bisect.bisect_right(newlines, m.start()) + 1)
+    times = _Times(Path(source), audio_duration)
     if len(values) < 2 or values[0] != "ooTextFile" or values[1] != "TextGrid":
         raise ImportFormatError(f"{source}: not a Praat TextGrid (missing 'File type = \"ooTextFile\"' header)")
     pos = 2
@@ -83,21 +145,30 @@ def parse_textgrid(text: str, source: str = "TextGrid") -> dict[str, list[tuple[
         pos += 1
         n_tiers = int(values[pos]); pos += 1
         tiers: dict[str, list[tuple[float, float, str]]] = {}
+        if n_tiers < 0 or n_tiers > len(values):
+            raise ValueError(n_tiers)
         for _ in range(n_tiers):
             kind, name = values[pos], values[pos + 1]
             pos += 4  # class, name, xmin, xmax
             count = int(values[pos]); pos += 1
+            if count < 0 or count > len(values):
+                raise ValueError(count)
             if kind == "IntervalTier":
                 items = []
+                times.restart()
                 for _ in range(count):
-                    a, b, label = float(values[pos]), float(values[pos + 1]), str(values[pos + 2])
+                    where = f"line {lines[pos]}"
+                    if not isinstance(values[pos], float) or not isinstance(values[pos + 1], float):
+                        raise ValueError(where)
+                    a, b = times.span(values[pos], values[pos + 1], where, f"line {lines[pos + 1]}")
+                    label = str(values[pos + 2])
                     pos += 3
                     items.append((a, b, label))
                 tiers[str(name)] = items
             else:
                 pos += 2 * count
         return tiers
-    except (IndexError, ValueError, TypeError):
+    except (IndexError, ValueError, TypeError, OverflowError):
         raise ImportFormatError(f"{source}: the TextGrid is cut short or malformed") from None
 
 
@@ -116,9 +187,9 @@ def _pick(tiers, names):
     return None
 
 
-def read_textgrid(path, phoneset: str = "auto") -> Alignment:
+def read_textgrid(path, phoneset: str = "auto", audio_duration: float | None = None) -> Alignment:
     path = _check(path)
-    tiers = parse_textgrid(_read_text(path), str(path))
+    tiers = parse_textgrid(_read_text(path), str(path), audio_duration)
     if not tiers:
         raise ImportFormatError(f"{path}: the TextGrid has no interval tiers")
     phone_tier = _pick(tiers, _PHONE_TIERS)
@@ -174,18 +245,29 @@ def _attach_words(phones: list[AlignedPhone], words: list[AlignedWord], duration
 
 # --- Rhubarb ----------------------------------------------------------------
 
-def read_rhubarb(path) -> Alignment:
-    """Rhubarb Lip Sync cues, JSON (``mouthCues``) or TSV (``time<TAB>shape``)."""
+def read_rhubarb(path, audio_duration: float | None = None) -> Alignment:
+    """Rhubarb Lip Sync cues, JSON (``mouthCues``) or TSV (``time<TAB>shape``).
+    Every time is checked (finite, not negative, in order, not past
+    ``audio_duration`` if given); an error names the cue or line."""
     path = _check(path)
     text = _read_text(path)
+    times = _Times(path, audio_duration)
     cues: list[tuple[float, float | None, str]] = []
     if text.lstrip().startswith("{"):
         try:
             doc = json.loads(text)
-            for c in doc["mouthCues"]:
-                cues.append((float(c["start"]), float(c["end"]), str(c["value"])))
-            duration = float(doc.get("metadata", {}).get("duration") or (cues[-1][1] if cues else 0.0))
-        except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
+            mouth = doc["mouthCues"]
+            if not isinstance(mouth, list):
+                raise TypeError("'mouthCues' is not a list")
+            for k, c in enumerate(mouth, 1):
+                a, b = times.span(c["start"], c["end"], f"cue {k}")
+                cues.append((a, b, str(c["value"])))
+            meta = doc.get("metadata") or {}
+            if not isinstance(meta, dict):
+                raise TypeError("'metadata' is not an object")
+            duration = (times.time(meta["duration"], "metadata", "duration") if meta.get("duration")
+                        else (cues[-1][1] if cues else 0.0))
+        except (KeyError, TypeError, ValueError, AttributeError, json.JSONDecodeError) as exc:
             raise ImportFormatError(f"{path}: not a Rhubarb JSON file ({exc})") from None
     else:
         for lineno, row in enumerate(csv.reader(io.StringIO(text), delimiter="\t"), 1):
@@ -194,9 +276,12 @@ def read_rhubarb(path) -> Alignment:
             if len(row) < 2:
                 raise ImportFormatError(f"{path}, line {lineno}: expected 'time<TAB>shape'")
             try:
-                cues.append((float(row[0]), None, row[1].strip()))
+                float(row[0])
             except ValueError:
                 raise ImportFormatError(f"{path}, line {lineno}: {row[0]!r} is not a time") from None
+            a = times.time(row[0], f"line {lineno}")
+            times.order(a, f"line {lineno}")
+            cues.append((a, None, row[1].strip()))
         cues = [(a, cues[k + 1][0] if k + 1 < len(cues) else a, v) for k, (a, _, v) in enumerate(cues)]
         duration = cues[-1][0] if cues else 0.0
     phones = []
@@ -211,16 +296,27 @@ def read_rhubarb(path) -> Alignment:
 
 # --- Papagayo ---------------------------------------------------------------
 
-def read_papagayo(path) -> Alignment:
+def read_papagayo(path, audio_duration: float | None = None) -> Alignment:
     """A Papagayo-NG ``.pgo`` project: frame-numbered phonemes per word, in
-    Preston Blair shapes or CMU phones; all voices are merged."""
+    Preston Blair shapes or CMU phones; all voices are merged.  The frame rate
+    must be positive and every frame (as a time) not negative, in order within
+    its word and not past ``audio_duration`` if given; an error names the line."""
     path = _check(path)
     lines = [l.strip() for l in _read_text(path).splitlines()]
     if not lines or not lines[0].lower().startswith("lipsync version"):
         raise ImportFormatError(f"{path}: not a Papagayo project (first line must be 'lipsync version 1')")
+    times = _Times(path, audio_duration)
     try:
-        fps = float(lines[2])
+        try:
+            fps = float(lines[2])
+        except ValueError:
+            times.fail("line 3", f"frame rate {lines[2]!r} is not a number")
+        if not (math.isfinite(fps) and fps > 0):
+            times.fail("line 3", f"frame rate {lines[2]!r} must be a positive number")
         n_frames = int(lines[3])
+        if n_frames < 0:
+            times.fail("line 4", f"frame count {n_frames} is negative")
+        times.time(n_frames / fps, "line 4", f"project length ({n_frames} frames)")
         n_voices = int(lines[4])
         pos = 5
         words: list[AlignedWord] = []
@@ -233,13 +329,19 @@ def read_papagayo(path) -> Alignment:
                 n_words = int(lines[pos]); pos += 1
                 for _ in range(n_words):
                     text, start, end, n_ph = lines[pos].split()[:4]
+                    where = f"line {pos + 1}"
                     pos += 1
-                    words.append(AlignedWord(text.lower(), int(start) / fps, (int(end) + 1) / fps, []))
+                    times.restart()
+                    a, b = times.span(int(start) / fps, int(end) / fps, f"{where} (word {text!r})")
+                    words.append(AlignedWord(text.lower(), a, b + 1 / fps, []))
+                    times.restart()
                     for _ in range(int(n_ph)):
                         frame, label = lines[pos].split()[:2]
+                        where = f"line {pos + 1}"
                         pos += 1
+                        times.order(times.time(int(frame) / fps, f"{where} (frame {frame})"), where)
                         raw.append((int(frame), label, len(words) - 1))
-    except (IndexError, ValueError):
+    except (IndexError, ValueError, OverflowError):
         raise ImportFormatError(f"{path}: the Papagayo project is cut short or malformed") from None
     phones: list[AlignedPhone] = []
     for k, (frame, label, wi) in enumerate(raw):
@@ -261,16 +363,18 @@ def read_papagayo(path) -> Alignment:
     return Alignment(words, phones, duration)
 
 
-def read_alignment(path, phoneset: str = "auto") -> Alignment:
-    """Read any supported alignment file, chosen by its extension."""
+def read_alignment(path, phoneset: str = "auto", audio_duration: float | None = None) -> Alignment:
+    """Read any supported alignment file, chosen by its extension.  With
+    ``audio_duration`` (s), a time past the end of the audio (by more than
+    :data:`END_TOLERANCE`) is an error naming the file and line."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext == ".textgrid":
-        return read_textgrid(path, phoneset)
+        return read_textgrid(path, phoneset, audio_duration)
     if ext in {".json", ".tsv", ".txt"}:
-        return read_rhubarb(path)
+        return read_rhubarb(path, audio_duration)
     if ext == ".pgo":
-        return read_papagayo(path)
+        return read_papagayo(path, audio_duration)
     raise ImportFormatError(
         f"{path}: unknown alignment format {ext or '(no extension)'}; "
         "use .TextGrid, Rhubarb .json/.tsv or Papagayo .pgo")

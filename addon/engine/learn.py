@@ -434,7 +434,7 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
             raise LipSyncError(f"{audio_path.name}: no transcript ({stem.name}.txt) or alignment "
                                f"({stem.name}.TextGrid) beside it")
     if alignment_path is not None:
-        al = read_alignment(alignment_path)
+        al = read_alignment(alignment_path, audio_duration=snd.duration)
         al.duration = max(al.duration, snd.duration)
     else:
         al = align_audio(snd, transcript, Lexicon.with_user_file(dictionary))

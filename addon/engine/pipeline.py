@@ -195,6 +195,28 @@ def viseme_set_for(preset: dict, viseme_set: str | None = None) -> visemes.Visem
     return visemes.with_targets(base, learned["targets"])
 
 
+def check_alignment_times(al: Alignment, audio_duration: float) -> None:
+    """An alignment handed over as an object: every phone and word time
+    finite, not negative, not ending before it starts and not past the end
+    of the audio (by more than the importers' tolerance)."""
+    from .importers import END_TOLERANCE
+
+    limit = audio_duration + END_TOLERANCE
+    items = [("phone", k, p.phone, p.start, p.end) for k, p in enumerate(al.phones)]
+    items += [("word", k, w.text, w.start, w.end) for k, w in enumerate(al.words)]
+    for kind, k, label, a, b in items:
+        where = f"the alignment's {kind} {k + 1} ({label!r})"
+        if not (np.isfinite(a) and np.isfinite(b)):
+            raise LipSyncError(f"{where}: its times ({a}, {b}) are not finite numbers")
+        if a < 0 or b < a:
+            raise LipSyncError(f"{where}: its times ({a:g} s to {b:g} s) are negative or reversed")
+        if b > limit:
+            raise LipSyncError(f"{where}: it ends at {b:g} s, past the end of the audio ({audio_duration:.3f} s)")
+    if not np.isfinite(al.duration) or al.duration > limit:
+        raise LipSyncError(f"the alignment's length ({al.duration:g} s) is past the end of the audio "
+                           f"({audio_duration:.3f} s)")
+
+
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
             viseme_set: str | None = None, emotion: str | dict = "neutral",
@@ -225,8 +247,11 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         report("align", 0.1)
         al = align_audio(snd, text, Lexicon.with_user_file(dictionary),
                          settings, lambda f: report("align", 0.1 + 0.7 * f))
+    elif isinstance(alignment, Alignment):
+        al = alignment
+        check_alignment_times(al, snd.duration)
     else:
-        al = alignment if isinstance(alignment, Alignment) else read_alignment(alignment)
+        al = read_alignment(alignment, audio_duration=snd.duration)
     al.duration = max(snd.duration, al.duration if alignment is not None else 0.0)
     report("prosody", 0.8)
     tracks = prosody.analyse(snd)

@@ -1,0 +1,199 @@
+"""Bad input, made at test time: every case ends in a clear message (the
+command line: exit status 1 and one ``error:`` line naming the file, line or
+time; never a traceback) or in correct output with a warning."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+import wave
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from addon.engine.errors import ImportFormatError, LipSyncError
+from addon.engine.importers import read_alignment
+
+ROOT = Path(__file__).resolve().parent.parent
+FIXTURES = Path(__file__).parent / "fixtures"
+
+
+def write_wav(path, samples, rate=16000, width=2, channels=1):
+    """``samples`` in [-1, 1], written as ``width``-byte PCM."""
+    x = np.clip(np.asarray(samples, np.float64), -1, 1)
+    if channels > 1:
+        x = np.repeat(x[:, None], channels, axis=1)
+    if width == 1:
+        data = ((x * 127) + 128).astype(np.uint8).tobytes()
+    elif width == 2:
+        data = (x * 32767).astype("<i2").tobytes()
+    elif width == 3:
+        v = (x * 8388607).astype("<i4").reshape(-1, 1).view(np.uint8).reshape(-1, 4)[:, :3]
+        data = v.tobytes()
+    else:
+        data = (x * 2147483647).astype("<i4").tobytes()
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(channels)
+        w.setsampwidth(width)
+        w.setframerate(rate)
+        w.writeframes(data)
+    return path
+
+
+def voiced(seconds=1.0, rate=16000):
+    """A vowel-like buzz (130 Hz with harmonics) with a syllable envelope."""
+    t = np.arange(int(seconds * rate)) / rate
+    buzz = sum(np.sin(2 * np.pi * 130 * k * t) / k for k in range(1, 12))
+    env = np.clip(np.sin(np.pi * t * 4) ** 2, 0, 1) * (t > 0.1) * (t < seconds - 0.1)
+    return 0.3 * buzz / np.max(np.abs(buzz)) * env
+
+
+def run_cli(*args, cwd=None):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.run([sys.executable, "-m", "addon", *map(str, args)], capture_output=True,
+                       text=True, env=env, cwd=cwd or ROOT, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def assert_error(rc, out, err, *names):
+    """Exit status 1, one ``error:`` line naming each of ``names``, no traceback."""
+    assert "Traceback" not in out + err, err
+    assert rc == 1, (rc, out, err)
+    lines = [l for l in err.splitlines() if l.startswith("error:")]
+    assert len(lines) == 1, err
+    for n in names:
+        assert str(n) in lines[0], (n, lines[0])
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def one_second(tmp_path_factory):
+    return write_wav(tmp_path_factory.mktemp("audio") / "line.wav", voiced(1.0))
+
+
+# --- Imported alignments --------------------------------------------------------
+
+def textgrid(intervals, xmax=1.0):
+    items = "".join(f"        intervals [{k}]:\n            xmin = {a}\n            xmax = {b}\n"
+                    f"            text = \"{t}\"\n" for k, (a, b, t) in enumerate(intervals, 1))
+    return (f'File type = "ooTextFile"\nObject class = "TextGrid"\n\nxmin = 0\nxmax = {xmax}\n'
+            f'tiers? <exists>\nsize = 1\nitem []:\n    item [1]:\n        class = "IntervalTier"\n'
+            f'        name = "phones"\n        xmin = 0\n        xmax = {xmax}\n'
+            f'        intervals: size = {len(intervals)}\n' + items)
+
+
+def rhubarb_json(cues, duration=None):
+    doc = {"mouthCues": [{"start": a, "end": b, "value": v} for a, b, v in cues]}
+    if duration is not None:
+        doc["metadata"] = {"duration": duration}
+    # json.dumps writes NaN/Infinity as Rhubarb-like JSON would carry them
+    return json.dumps(doc)
+
+
+def papagayo(fps="24", frames="24", words=(("hello", 2, 10, ((2, "E"), (6, "O"))),)):
+    lines = ["lipsync version 1", "line.wav", str(fps), str(frames), "1", "Voice 1", "hello", "1",
+             "hello", "0", "24", str(len(words))]
+    for text, a, b, phs in words:
+        lines.append(f"{text} {a} {b} {len(phs)}")
+        lines += [f"{f} {l}" for f, l in phs]
+    return "\n".join(lines) + "\n"
+
+
+GOOD_TG = [(0, 0.1, "sil"), (0.1, 0.3, "HH"), (0.3, 0.6, "AH0"), (0.6, 1.0, "sil")]
+
+ALIGNMENTS = {
+    # name: (file name, content, words the error must contain)
+    "tg_nan": ("a.TextGrid", textgrid([(0, 0.1, "sil"), ("nan", 0.3, "HH")]), ["line 20", "not a finite"]),
+    "tg_inf": ("a.TextGrid", textgrid([(0, 0.1, "sil"), (0.1, "inf", "HH")]), ["line 21", "not a finite"]),
+    "tg_negative": ("a.TextGrid", textgrid([(-0.5, 0.1, "sil"), (0.1, 0.3, "HH")]), ["line 16", "-0.5", "negative"]),
+    "tg_reversed": ("a.TextGrid", textgrid([(0, 0.1, "sil"), (0.3, 0.1, "HH")]), ["line 20", "before it starts"]),
+    "tg_out_of_order": ("a.TextGrid", textgrid([(0, 0.1, "sil"), (0.5, 0.6, "HH"), (0.2, 0.3, "AH0")]),
+                        ["line 24", "0.2", "out of order"]),
+    "tg_past_end": ("a.TextGrid", textgrid(GOOD_TG + [(1.0, 1e8, "sil")], 1e8), ["line 33", "1e+08", "past the end"]),
+    "tg_cut_short": ("a.TextGrid", textgrid(GOOD_TG)[:-60], ["cut short"]),
+    "tg_huge_size": ("a.TextGrid", textgrid(GOOD_TG).replace("size = 4", "size = 99999999999"), ["malformed"]),
+    "tg_not_textgrid": ("a.TextGrid", "hello world\n", ["not a Praat TextGrid"]),
+    "rh_json_nan": ("a.json", rhubarb_json([(0, 0.2, "X"), (float("nan"), 0.5, "B")]), ["cue 2", "not a finite"]),
+    "rh_json_inf": ("a.json", rhubarb_json([(0, float("inf"), "B")]), ["cue 1", "not a finite"]),
+    "rh_json_negative": ("a.json", rhubarb_json([(-1, 0.2, "B")]), ["cue 1", "negative"]),
+    "rh_json_reversed": ("a.json", rhubarb_json([(0.5, 0.2, "B")]), ["cue 1", "before it starts"]),
+    "rh_json_out_of_order": ("a.json", rhubarb_json([(0.5, 0.6, "B"), (0.1, 0.2, "C")]), ["cue 2", "out of order"]),
+    "rh_json_past_end": ("a.json", rhubarb_json([(0, 0.2, "X"), (0.2, 1e8, "B")]), ["cue 2", "1e+08", "past the end"]),
+    "rh_json_duration_past_end": ("a.json", rhubarb_json([(0, 0.2, "B")], 1e5), ["100000", "past the end"]),
+    "rh_json_not_number": ("a.json", rhubarb_json([(0, "soon", "B")]), ["cue 1", "'soon'"]),
+    "rh_json_no_cues": ("a.json", '{"cues": []}', ["not a Rhubarb JSON"]),
+    "rh_json_cues_not_list": ("a.json", '{"mouthCues": 5}', ["not a Rhubarb JSON"]),
+    "rh_json_broken": ("a.json", '{"mouthCues": [', ["not a Rhubarb JSON"]),
+    "rh_tsv_nan": ("a.tsv", "0.0\tX\nnan\tB\n", ["line 2", "not a finite"]),
+    "rh_tsv_negative": ("a.tsv", "-0.2\tX\n0.3\tB\n", ["line 1", "negative"]),
+    "rh_tsv_out_of_order": ("a.tsv", "0.0\tX\n0.5\tB\n0.2\tC\n", ["line 3", "out of order"]),
+    "rh_tsv_past_end": ("a.tsv", "0.0\tX\n100000000\tB\n", ["line 2", "1e+08", "past the end"]),
+    "rh_tsv_not_time": ("a.tsv", "0.0\tX\nlater\tB\n", ["line 2", "'later'"]),
+    "rh_tsv_one_column": ("a.tsv", "0.0\n", ["line 1", "time<TAB>shape"]),
+    "rh_tsv_bad_shape": ("a.tsv", "0.0\tQ\n", ["'Q'", "0.000 s"]),
+    "pgo_fps_zero": ("a.pgo", papagayo(fps="0"), ["line 3", "frame rate"]),
+    "pgo_fps_negative": ("a.pgo", papagayo(fps="-24"), ["line 3", "frame rate"]),
+    "pgo_fps_nan": ("a.pgo", papagayo(fps="nan"), ["line 3", "frame rate"]),
+    "pgo_negative_frame": ("a.pgo", papagayo(words=(("hello", 2, 10, ((-4, "E"),)),)), ["line 14", "negative"]),
+    "pgo_word_reversed": ("a.pgo", papagayo(words=(("hello", 10, 2, ((2, "E"),)),)), ["line 13", "before it starts"]),
+    "pgo_out_of_order": ("a.pgo", papagayo(words=(("hello", 2, 10, ((6, "E"), (3, "O"))),)),
+                         ["line 15", "out of order"]),
+    "pgo_past_end": ("a.pgo", papagayo(words=(("hello", 2, 2400000000, ((2, "E"),)),)),
+                     ["line 13", "past the end"]),
+    "pgo_length_past_end": ("a.pgo", papagayo(frames="2400000000"), ["line 4", "past the end"]),
+    "pgo_cut_short": ("a.pgo", papagayo()[:40], ["cut short"]),
+    "pgo_not_papagayo": ("a.pgo", "hello\n", ["not a Papagayo"]),
+    "unknown_extension": ("a.srt", "1\n00:00:00,000 --> 00:00:01,000\nhi\n", ["unknown alignment format"]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(ALIGNMENTS))
+def test_malformed_alignment_is_named(tmp_path, name):
+    fname, content, words = ALIGNMENTS[name]
+    path = tmp_path / fname
+    path.write_text(content, encoding="utf-8")
+    with pytest.raises(LipSyncError) as exc:
+        read_alignment(path, audio_duration=1.0)
+    msg = str(exc.value)
+    for w in words:
+        assert w in msg, (w, msg)
+    if "unknown phone" not in msg and "unknown alignment" not in msg:
+        assert str(path) in msg
+
+
+@pytest.mark.parametrize("name", ["tg_past_end", "rh_json_past_end", "rh_tsv_nan", "pgo_fps_zero",
+                                  "rh_json_inf", "tg_out_of_order"])
+def test_malformed_alignment_on_the_command_line(tmp_path, one_second, name):
+    fname, content, words = ALIGNMENTS[name]
+    path = tmp_path / fname
+    path.write_text(content, encoding="utf-8")
+    out = tmp_path / "out.json"
+    rc, so, se = run_cli("analyze", one_second, "--alignment", path, "--json", out)
+    assert_error(rc, so, se, path, *words)
+    assert not out.exists()
+
+
+def test_alignment_within_tolerance_of_the_end_is_kept(tmp_path, one_second):
+    """A cue a little past the end (rounding, a last frame) is fine."""
+    path = tmp_path / "a.json"
+    path.write_text(rhubarb_json([(0.0, 0.3, "X"), (0.3, 0.6, "B"), (0.6, 1.2, "X")], 1.2))
+    al = read_alignment(path, audio_duration=1.0)
+    assert [p.phone for p in al.phones] == ["K"]
+    out = tmp_path / "out.json"
+    rc, so, se = run_cli("analyze", one_second, "--alignment", path, "--json", out)
+    assert rc == 0, se
+    assert json.loads(out.read_text())["phonemes"][0]["phone"] == "K"
+
+
+def test_alignment_object_past_the_end_is_refused():
+    from addon.engine.align import AlignedPhone, AlignedWord, Alignment
+    from addon.engine.audio import from_samples
+    from addon.engine.pipeline import analyze
+
+    snd = from_samples(voiced(1.0), 16000)
+    for a, b in ((0.1, 1e8), (float("nan"), 0.2), (-1.0, 0.2)):
+        al = Alignment([AlignedWord("bob", 0.1, 0.5, ["B"])], [AlignedPhone("B", a, b, 0)], 1.0)
+        with pytest.raises(LipSyncError, match="alignment's phone 1"):
+            analyze(snd, alignment=al)
