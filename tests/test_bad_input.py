@@ -197,3 +197,81 @@ def test_alignment_object_past_the_end_is_refused():
         al = Alignment([AlignedWord("bob", 0.1, 0.5, ["B"])], [AlignedPhone("B", a, b, 0)], 1.0)
         with pytest.raises(LipSyncError, match="alignment's phone 1"):
             analyze(snd, alignment=al)
+
+
+# --- Transcripts -----------------------------------------------------------------
+
+from addon.engine.text import decode_text, read_text_file  # noqa: E402
+
+LINE = "Café Bob bought a map"
+
+
+@pytest.mark.parametrize("raw", [LINE.encode("utf-8"), b"\xef\xbb\xbf" + LINE.encode("utf-8"),
+                                 LINE.encode("utf-16"), b"\xff\xfe" + LINE.encode("utf-16-le"),
+                                 b"\xfe\xff" + LINE.encode("utf-16-be")],
+                         ids=["utf8", "utf8-bom", "utf16", "utf16le-bom", "utf16be-bom"])
+def test_transcript_encodings_read_without_a_note(raw):
+    assert decode_text(raw) == (LINE, [])
+
+
+@pytest.mark.parametrize("enc", ["cp1252", "latin-1"])
+def test_windows_transcript_read_with_a_note(tmp_path, enc):
+    path = tmp_path / "line.txt"
+    path.write_bytes((LINE + " \u2019" if enc == "cp1252" else LINE).encode(enc))
+    text, notes = read_text_file(path)
+    assert text.startswith(LINE)
+    assert len(notes) == 1 and str(path) in notes[0] and "not UTF-8" in notes[0]
+
+
+@pytest.mark.parametrize("raw, words", [
+    (b"\x00\x01\x02\x00binary", ["not a text file"]),
+    (b"\xff\xfe\x00\xd8", ["UTF-16-LE", "byte-order mark"]),
+], ids=["binary", "bad-utf16"])
+def test_unreadable_transcript_is_named(tmp_path, raw, words):
+    path = tmp_path / "line.txt"
+    path.write_bytes(raw)
+    with pytest.raises(LipSyncError) as exc:
+        read_text_file(path)
+    for w in [str(path)] + words:
+        assert w in str(exc.value)
+
+
+def test_transcript_path_missing_or_folder(tmp_path):
+    with pytest.raises(LipSyncError, match="not found"):
+        read_text_file(tmp_path / "nope.txt")
+    with pytest.raises(LipSyncError, match="is a folder"):
+        read_text_file(tmp_path)
+
+
+def test_latin1_transcript_on_the_command_line(tmp_path):
+    path = tmp_path / "line.txt"
+    path.write_bytes("Bob bought a map, café".encode("latin-1"))
+    out = tmp_path / "out.json"
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--transcript", path, "--json", out)
+    assert rc == 0, se
+    assert "Traceback" not in se
+    assert any(l.startswith("warning:") and str(path) in l and "not UTF-8" in l for l in se.splitlines()), se
+    doc = json.loads(out.read_text())
+    assert any("not UTF-8" in n for n in doc["notes"])
+    assert [w["word"] for w in doc["words"]][:4] == ["bob", "bought", "a", "map"]
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"", ["transcript is empty", "line.txt"]),
+    (b"  \n\t\n", ["transcript is empty", "line.txt"]),
+    (b"... !? -- ,", ["no spoken words"]),
+    (b"[laughs] (sighs)", ["no spoken words"]),
+    (b"\x00\x00\x00\x00", ["not a text file", "line.txt"]),
+], ids=["empty", "blank", "punctuation", "stage-directions", "binary"])
+def test_unusable_transcript_on_the_command_line(tmp_path, content, words):
+    path = tmp_path / "line.txt"
+    path.write_bytes(content)
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--transcript", path, "--json", tmp_path / "o.json")
+    assert_error(rc, so, se, *words)
+
+
+@pytest.mark.parametrize("where", ["missing", "folder"])
+def test_transcript_missing_or_folder_on_the_command_line(tmp_path, where):
+    path = tmp_path / "nope.txt" if where == "missing" else tmp_path
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--transcript", path, "--json", tmp_path / "o.json")
+    assert_error(rc, so, se, path, "not found" if where == "missing" else "folder")

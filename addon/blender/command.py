@@ -21,6 +21,7 @@ import bpy
 
 from ..engine import presets, visemes
 from ..engine.errors import LipSyncError
+from ..engine.text import read_text_file
 from . import compat, run, sources
 
 COMMAND = "lipsync"
@@ -54,11 +55,10 @@ def _fixed_text(args) -> str | None:
     if args.text is not None:
         return args.text
     if args.transcript:
-        try:
-            with open(args.transcript, encoding="utf-8-sig") as fh:
-                return fh.read()
-        except OSError as exc:
-            raise LipSyncError(f"cannot read transcript {args.transcript}: {exc.strerror}") from None
+        body, notes = read_text_file(args.transcript)
+        for note in notes:
+            print(f"warning: {note}", file=sys.stderr)
+        return body
     return None
 
 

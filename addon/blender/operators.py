@@ -17,6 +17,7 @@ from bpy.props import FloatProperty, IntProperty, StringProperty
 from ..engine import mapping as mapping_mod
 from ..engine import presets, visemes
 from ..engine.errors import LipSyncError
+from ..engine.text import read_text_file
 from . import compat, jobs, keying, run, sources
 
 
@@ -319,11 +320,12 @@ class LIPSYNC_OT_load_transcript(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            with open(bpy.path.abspath(self.filepath), encoding="utf-8-sig") as fh:
-                body = fh.read()
-        except OSError as exc:
-            self.report({"ERROR"}, f"cannot read {self.filepath}: {exc.strerror}")
+            body, notes = read_text_file(bpy.path.abspath(self.filepath))
+        except LipSyncError as exc:
+            self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        for note in notes:
+            self.report({"WARNING"}, note)
         name = os.path.basename(self.filepath)
         block = bpy.data.texts.new(name)
         block.from_string(body)

@@ -104,7 +104,7 @@ def problems(context) -> list[str]:
         if strip is not None and strip.sound is not None and strip.sound.packed_file is None:
             audio_path = sources.sound_path(strip.sound)
     has_text = (st.text_block is not None and st.text_block.as_string().strip()) or st.text.strip() or \
-        (audio_path and sources.sidecar_transcript(audio_path))
+        (audio_path and sources.has_sidecar_transcript(audio_path))
     if not has_text:
         out.append("No transcript: type it, pick a text block, or save a .txt beside the audio")
     return out

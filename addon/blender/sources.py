@@ -20,6 +20,7 @@ import bpy
 
 from ..engine.audio import Audio
 from ..engine.errors import AudioError, LipSyncError, TranscriptError
+from ..engine.text import read_text_file
 from . import compat
 
 #: Custom properties a sound strip may carry for batch runs.
@@ -112,14 +113,32 @@ def file_clip(path: str, first_frame: int) -> Clip:
 
 
 def sidecar_transcript(audio_path: str | None) -> str | None:
-    """``line.txt`` beside ``line.wav``."""
+    """``line.txt`` beside ``line.wav``, in any encoding the engine reads
+    (:func:`..engine.text.read_text_file`; a guessed encoding is reported on
+    the console).  An unreadable file is a :class:`TranscriptError`."""
     if not audio_path:
         return None
     txt = os.path.splitext(audio_path)[0] + ".txt"
     if os.path.isfile(txt):
-        with open(txt, encoding="utf-8-sig") as fh:
-            return fh.read()
+        body, notes = read_text_file(txt)
+        for note in notes:
+            print(f"Emotive Lip Sync: warning: {note}")
+        return body
     return None
+
+
+def has_sidecar_transcript(audio_path: str | None) -> bool:
+    """Whether a ``.txt`` with text lies beside the audio (for the panel's
+    checklist; an unreadable one counts, and Generate says what is wrong)."""
+    if not audio_path:
+        return False
+    txt = os.path.splitext(audio_path)[0] + ".txt"
+    if not os.path.isfile(txt):
+        return False
+    try:
+        return bool(read_text_file(txt)[0].strip())
+    except LipSyncError:
+        return True
 
 
 def transcript(text: str = "", text_block=None, audio_path: str | None = None) -> tuple[str, str]:

@@ -418,6 +418,7 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
     from .importers import read_alignment
     from .pipeline import align_audio
     from .pronounce import Lexicon
+    from .text import read_text_file
 
     audio_path = Path(audio_path)
     stem = audio_path.with_suffix("")
@@ -429,7 +430,7 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
         if grid.is_file():
             alignment_path = grid
         elif stem.with_suffix(".txt").is_file():
-            transcript = stem.with_suffix(".txt").read_text(encoding="utf-8-sig")
+            transcript, _notes = read_text_file(stem.with_suffix(".txt"))
         else:
             raise LipSyncError(f"{audio_path.name}: no transcript ({stem.name}.txt) or alignment "
                                f"({stem.name}.TextGrid) beside it")

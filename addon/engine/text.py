@@ -219,3 +219,56 @@ def _roman_value(s: str) -> int:
         v = values[a]
         total += -v if b in values and values[b] > v else v
     return total
+
+
+# ---------------------------------------------------------------------------
+# Reading text files (transcripts) in whatever encoding they were saved
+
+_BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe\x00\x00", "utf-32-le"), (b"\x00\x00\xfe\xff", "utf-32-be"),
+         (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
+
+
+def decode_text(raw: bytes, source: str = "text") -> tuple[str, list[str]]:
+    """Bytes of a text file -> its text and notes.  UTF-8 (with or without a
+    byte-order mark), UTF-16 or UTF-32 with one; else Windows-1252 (the
+    common Windows "ANSI" encoding, a superset of Latin-1 for text), with a
+    note saying so.  Binary data (NUL bytes) is an error naming ``source``."""
+    for bom, enc in _BOMS:
+        if raw.startswith(bom):
+            try:
+                return raw[len(bom):].decode(enc.replace("-sig", "")), []
+            except UnicodeDecodeError as exc:
+                raise TranscriptError(f"{source} starts with a {enc.upper()} byte-order mark but is not valid "
+                                      f"{enc.upper()} (byte {exc.start + len(bom)}); save it as UTF-8") from None
+    if b"\x00" in raw:
+        raise TranscriptError(f"{source} is not a text file (it holds NUL bytes; UTF-16 without a byte-order "
+                              "mark?); save it as UTF-8")
+    try:
+        return raw.decode("utf-8"), []
+    except UnicodeDecodeError as exc:
+        bad = exc.start
+    try:
+        text, enc = raw.decode("cp1252"), "Windows-1252 (cp1252)"
+    except UnicodeDecodeError:
+        text, enc = raw.decode("latin-1"), "Latin-1"
+    return text, [f"{source} is not UTF-8 (byte {bad}); read it as {enc}: check its accented letters, "
+                  "or save it as UTF-8"]
+
+
+def read_text_file(path, what: str = "transcript") -> tuple[str, list[str]]:
+    """A text file's text and notes (see :func:`decode_text`).  A missing
+    file, a folder or an unreadable file is a :class:`TranscriptError`
+    naming it."""
+    import os
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise TranscriptError(f"{what} file not found: {path}")
+    if os.path.isdir(path):
+        raise TranscriptError(f"{what} path is a folder, not a file: {path}")
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as exc:
+        raise TranscriptError(f"cannot read {what} file {path}: {exc.strerror or exc}") from None
+    return decode_text(raw, f"{what} file {path}")

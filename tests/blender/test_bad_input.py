@@ -1,0 +1,73 @@
+"""Bad input through the operators: each case raises a ``RuntimeError``
+with a clear message (no traceback) and leaves the user's keys and shape
+keys as they were, or works and says what it had to guess."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from importlib import import_module
+
+import bpy
+import pytest
+
+from conftest import FIXTURES, MODULE, add_strip, keyed_shape_keys
+
+BOB = os.path.join(FIXTURES, "bob_map.wav")
+
+
+def _generate(**kw):
+    return bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", **kw)
+
+
+def _snapshot(obj):
+    """Everything of ``obj``'s shape keys a failed operator must not change."""
+    key = obj.data.shape_keys
+    if key is None:
+        return None
+    curves = []
+    compat = import_module(MODULE + ".blender.compat")
+    for fc in compat.fcurves(key):
+        curves.append((fc.data_path, tuple(tuple(k.co) for k in fc.keyframe_points)))
+    return ([(kb.name, kb.value) for kb in key.key_blocks], sorted(curves))
+
+
+def _refused(match, obj, **kw):
+    """The operator raises a RuntimeError matching ``match``, without a
+    traceback in its message, and ``obj``'s shape keys are unchanged."""
+    before = _snapshot(obj)
+    with pytest.raises(RuntimeError, match=match) as exc:
+        _generate(**kw)
+    assert "Traceback" not in str(exc.value)
+    assert _snapshot(obj) == before
+    return str(exc.value)
+
+
+# --- transcripts -------------------------------------------------------------------
+
+def test_latin1_sidecar_transcript_is_read(scene, tmp_path, capsys):
+    shutil.copy(BOB, tmp_path / "line.wav")
+    (tmp_path / "line.txt").write_bytes("Bob bought a map, café.".encode("latin-1"))
+    assert _generate(mesh="Ada", filepath=str(tmp_path / "line.wav"), frame=1) == {"FINISHED"}
+    assert "MBP" in keyed_shape_keys(bpy.data.objects["Ada"])
+    assert "not UTF-8" in capsys.readouterr().out
+
+
+def test_binary_sidecar_transcript_is_named(scene, tmp_path):
+    shutil.copy(BOB, tmp_path / "line.wav")
+    (tmp_path / "line.txt").write_bytes(b"\x00\x01\x02garbage\x00")
+    msg = _refused("not a text file", bpy.data.objects["Ada"], mesh="Ada",
+                   filepath=str(tmp_path / "line.wav"), frame=1)
+    assert str(tmp_path / "line.txt") in msg
+
+
+def test_load_transcript_reads_utf16_and_cp1252(scene, tmp_path):
+    (tmp_path / "a.txt").write_bytes("Bob bought a map, café.".encode("utf-16"))
+    (tmp_path / "b.txt").write_bytes("Bob bought a map, café \u2019.".encode("cp1252"))
+    assert bpy.ops.emotive_lipsync.load_transcript(filepath=str(tmp_path / "a.txt")) == {"FINISHED"}
+    assert scene.emotive_lipsync.text_block.as_string() == "Bob bought a map, café."
+    assert bpy.ops.emotive_lipsync.load_transcript(filepath=str(tmp_path / "b.txt")) == {"FINISHED"}
+    assert scene.emotive_lipsync.text_block.as_string() == "Bob bought a map, café \u2019."
+    (tmp_path / "c.txt").write_bytes(b"\x00\x00")
+    with pytest.raises(RuntimeError, match="not a text file"):
+        bpy.ops.emotive_lipsync.load_transcript(filepath=str(tmp_path / "c.txt"))
