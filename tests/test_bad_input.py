@@ -275,3 +275,48 @@ def test_transcript_missing_or_folder_on_the_command_line(tmp_path, where):
     path = tmp_path / "nope.txt" if where == "missing" else tmp_path
     rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--transcript", path, "--json", tmp_path / "o.json")
     assert_error(rc, so, se, path, "not found" if where == "missing" else "folder")
+
+
+# --- Outputs ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("case", ["missing-folder", "folder", "under-a-file", "is-the-audio", "same-json-csv"])
+def test_unusable_output_is_refused_before_the_work(tmp_path, case):
+    audio = tmp_path / "line.wav"
+    audio.write_bytes((FIXTURES / "bob_map.wav").read_bytes())
+    before = audio.read_bytes()
+    (tmp_path / "afile").write_text("keep me")
+    args, words = {
+        "missing-folder": (["--json", tmp_path / "nope" / "o.json"], ["does not exist", tmp_path / "nope"]),
+        "folder": (["--csv", tmp_path], ["is a folder", "--csv"]),
+        "under-a-file": (["--json", tmp_path / "afile" / "o.json"], ["is not a folder"]),
+        "is-the-audio": (["--json", audio], ["is also an input"]),
+        "same-json-csv": (["--json", tmp_path / "o.x", "--csv", tmp_path / "o.x"], ["same file"]),
+    }[case]
+    rc, so, se = run_cli("analyze", audio, "--text", "Bob bought a map.", *args)
+    assert_error(rc, so, se, *words)
+    assert audio.read_bytes() == before
+    assert (tmp_path / "afile").read_text() == "keep me"
+    assert not (tmp_path / "o.x").exists()
+
+
+def test_read_only_output_is_refused(tmp_path, monkeypatch):
+    from addon.engine import cli
+
+    out = tmp_path / "o.json"
+    out.write_text("old")
+    monkeypatch.setattr(os, "access", lambda *a, **k: False)  # as if read-only (root may write anything)
+    rc = cli.main(["analyze", str(FIXTURES / "bob_map.wav"), "--text", "Bob", "--json", str(out)])
+    assert rc == 1
+    assert out.read_text() == "old"
+    new = tmp_path / "new.json"
+    assert cli.main(["analyze", str(FIXTURES / "bob_map.wav"), "--text", "Bob", "--json", str(new)]) == 1
+    assert not new.exists()
+
+
+def test_read_only_output_message(tmp_path, monkeypatch, capsys):
+    from addon.engine import cli
+
+    monkeypatch.setattr(os, "access", lambda *a, **k: False)
+    cli.main(["analyze", str(FIXTURES / "bob_map.wav"), "--text", "Bob", "--json", str(tmp_path / "n.json")])
+    err = capsys.readouterr().err
+    assert f"error: cannot write --json output {tmp_path / 'n.json'}: no permission to write in {tmp_path}" in err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -70,6 +71,14 @@ def main(argv: list[str] | None = None) -> int:
         print("error: give --json OUT and/or --csv OUT", file=sys.stderr)
         return 2
     try:
+        from .pipeline import check_output_path
+
+        inputs = (args.audio, args.transcript, args.alignment)
+        for flag, out in (("--json", args.json), ("--csv", args.csv)):
+            if out:
+                check_output_path(out, f"{flag} output", inputs)
+        if args.json and args.csv and os.path.abspath(args.json) == os.path.abspath(args.csv):
+            raise LipSyncError(f"--json and --csv name the same file: {args.json}")
         text, warnings = None, []
         if args.transcript:
             text, warnings = read_text_file(args.transcript)
@@ -87,10 +96,12 @@ def main(argv: list[str] | None = None) -> int:
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
                          dictionary=args.dictionary, settings=AlignSettings(workers=args.workers))
         result.notes[:0] = warnings
-        if args.json:
-            result.write_json(args.json)
-        if args.csv:
-            result.write_csv(args.csv)
+        for out, write in ((args.json, result.write_json), (args.csv, result.write_csv)):
+            if out:
+                try:
+                    write(out)
+                except OSError as exc:
+                    raise LipSyncError(f"cannot write {out}: {exc.strerror or exc}") from None
     except LipSyncError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -124,6 +124,28 @@ class Result:
                 w.writerow([k, f"{t:.6f}"] + [f"{x:.4f}" for x in row])
 
 
+def check_output_path(path: str | os.PathLike, what: str = "output", inputs=()) -> None:
+    """Raise :class:`LipSyncError` now, before any work, if ``path`` cannot
+    be written: its folder is missing or not a folder, it is a folder, it is
+    read-only, or it is one of the ``inputs`` (which writing would destroy)."""
+    path = os.path.abspath(os.fspath(path))
+    folder = os.path.dirname(path)
+    if os.path.isdir(path):
+        raise LipSyncError(f"{what} {path} is a folder; give a file name")
+    if not os.path.exists(folder):
+        raise LipSyncError(f"cannot write {what} {path}: the folder {folder} does not exist")
+    if not os.path.isdir(folder):
+        raise LipSyncError(f"cannot write {what} {path}: {folder} is not a folder")
+    for other in inputs:
+        if other and os.path.exists(other) and os.path.exists(path) and os.path.samefile(path, other):
+            raise LipSyncError(f"{what} {path} is also an input; writing it would replace it")
+    if os.path.exists(path):
+        if not os.access(path, os.W_OK):
+            raise LipSyncError(f"cannot write {what} {path}: the file is read-only")
+    elif not os.access(folder, os.W_OK | os.X_OK):
+        raise LipSyncError(f"cannot write {what} {path}: no permission to write in {folder}")
+
+
 def frame_times(duration: float, fps: float) -> np.ndarray:
     return np.arange(int(np.floor(duration * fps + 1e-9)) + 1) / fps
 
