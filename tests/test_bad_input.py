@@ -320,3 +320,35 @@ def test_read_only_output_message(tmp_path, monkeypatch, capsys):
     cli.main(["analyze", str(FIXTURES / "bob_map.wav"), "--text", "Bob", "--json", str(tmp_path / "n.json")])
     err = capsys.readouterr().err
     assert f"error: cannot write --json output {tmp_path / 'n.json'}: no permission to write in {tmp_path}" in err
+
+
+# --- Words the aligner cannot use -------------------------------------------------
+
+def test_skipped_words_are_named_on_stderr_and_in_the_notes(tmp_path):
+    out = tmp_path / "o.json"
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob 😀 bought 你好 a map", "--json", out)
+    assert rc == 0, se
+    warn = [l for l in se.splitlines() if l.startswith("warning:")]
+    assert len(warn) == 1 and "'😀' (an emoji" in warn[0] and "'你好' (not in the Latin alphabet: CJK)" in warn[0]
+    doc = json.loads(out.read_text())
+    assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
+    assert any("2 words of the transcript left out" in n and "你好" in n for n in doc["notes"])
+
+
+@pytest.mark.parametrize("text, words", [
+    ("Привет мир", ["'Привет' (not in the Latin alphabet: Cyrillic)", "'мир'"]),
+    ("你好 😀", ["CJK", "emoji"]),
+    ("Ελλάδα", ["Greek"]),
+])
+def test_transcript_with_no_usable_word_says_why(tmp_path, text, words):
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", text, "--json", tmp_path / "o.json")
+    assert_error(rc, so, se, "no words the aligner can use", *words)
+
+
+def test_accented_latin_numbers_and_symbols_are_spoken_not_skipped(tmp_path):
+    from addon.engine.text import normalize, skipped_words
+
+    text = "Zoë paid $5 for 2 maps & 1 café, at 10:30 (sighs) \u201cokay\u201d"
+    assert skipped_words(text) == []
+    spoken = [w.text for w in normalize(text)]
+    assert spoken[:3] == ["zoë", "paid", "five"] and "and" in spoken and "café" in spoken

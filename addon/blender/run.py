@@ -46,13 +46,15 @@ class Summary:
     words: int
     timings: dict = field(default_factory=dict)
     also: list[str] = field(default_factory=list)   # the character's other meshes keyed with it
+    warnings: list[str] = field(default_factory=list)  # the engine's (words of the transcript left out ...)
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
         again = " (replacing the previous lip sync)" if self.replaced else ""
         also = f" (and on {', '.join(self.also)})" if self.also else ""
         return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys{also}, "
-                f"frames {self.first_frame}-{self.last_frame}{again}{est}, in {self.seconds:.1f} s")
+                f"frames {self.first_frame}-{self.last_frame}{again}{est}, in {self.seconds:.1f} s"
+                + "".join(f"; warning: {w}" for w in self.warnings))
 
 
 def check_mesh(obj) -> list[str]:
@@ -271,7 +273,7 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     words = result.alignment.words
     return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
                    len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
-                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also)
+                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings))
 
 
 def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:

@@ -101,6 +101,8 @@ class Alignment:
     phones: list[AlignedPhone]
     duration: float
     notes: list[str] = field(default_factory=list)
+    #: Notes the user must see (words of the transcript left out, ...): also in ``notes``.
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def n_estimated(self) -> int:

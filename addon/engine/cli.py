@@ -36,7 +36,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--workers", type=int, default=0, help="alignment processes (0: one per core)")
     a.add_argument("--json", metavar="OUT", help="write the result as JSON")
     a.add_argument("--csv", metavar="OUT", help="write the frame table as CSV")
-    a.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    a.add_argument("--quiet", action="store_true", help="print nothing but errors and warnings")
     sub.add_parser("list", help="list built-in viseme sets and emotion presets")
     le = sub.add_parser("learn", help="learn an emotion preset from example animation",
                         description="Learn a preset from clips: each AUDIO file with its face-capture CSV "
@@ -96,6 +96,9 @@ def main(argv: list[str] | None = None) -> int:
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
                          dictionary=args.dictionary, settings=AlignSettings(workers=args.workers))
         result.notes[:0] = warnings
+        for w in result.warnings:
+            print(f"warning: {w}", file=sys.stderr)
+        result.warnings[:0] = warnings
         for out, write in ((args.json, result.write_json), (args.csv, result.write_csv)):
             if out:
                 try:
@@ -111,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{len(result.times)} frames at {result.fps:.3f} fps, "
               f"{result.duration:.2f} s of audio in {time.perf_counter() - t0:.2f} s")
         for note in result.notes:
-            print("note:", note)
+            if note not in result.warnings:
+                print("note:", note)
     return 0
 
 

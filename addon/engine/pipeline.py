@@ -23,7 +23,7 @@ from .errors import LipSyncError
 from .importers import read_alignment
 from .phonemes import CLASSES, phone_class
 from .pronounce import Lexicon
-from .text import normalize
+from .text import describe_skipped, normalize, skipped_words
 
 MODELS = ("dominance", "rules")
 SCHEMA_VERSION = 1
@@ -61,6 +61,13 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
                [w.text for w in words], [p.source for p in prons], settings, progress)
     check_transcript_matches(al)
+    skipped = skipped_words(text)
+    if skipped:
+        n = len(skipped)
+        warning = (f"{n} word{'s' if n > 1 else ''} of the transcript left out, the aligner cannot use "
+                   f"{'them' if n > 1 else 'it'}: {describe_skipped(skipped)}")
+        al.notes.insert(0, warning)
+        al.warnings.insert(0, warning)
     return al
 
 
@@ -85,6 +92,8 @@ class Result:
     curves: np.ndarray         # (frames, visemes) in [0, 1]
     notes: list[str] = field(default_factory=list)
     closure: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per frame: lips closed (/p b m/), 0-1
+    #: The notes a user must see (printed as warnings): words left out, a guessed encoding.
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -289,7 +298,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
     closure = coarticulation.closure_track(times, [(p.phone, p.start, p.end) for p in al.phones])
     return Result(al.duration, fps, vset, preset.get("name", str(emotion)), coarticulation_model, al,
-                  pitch, inten, w, times, out, notes, closure)
+                  pitch, inten, w, times, out, notes, closure, list(al.warnings))
 
 
 __all__ = ["analyze", "align_audio", "align_file", "curves", "parse_fps", "Result", "CLASSES"]

@@ -19,6 +19,7 @@ the words that are actually heard:
 from __future__ import annotations
 
 import re
+import unicodedata
 from dataclasses import dataclass
 
 from . import numbers
@@ -188,8 +189,46 @@ def normalize(text: str) -> list[Word]:
         for s in spoken:
             words.append(Word(s, tok))
     if not words:
+        skipped = skipped_words(text)
+        if skipped:
+            raise TranscriptError("the transcript has no words the aligner can use: " + describe_skipped(skipped))
         raise TranscriptError("the transcript has no spoken words (only punctuation or stage directions)")
     return words
+
+
+def _skip_reason(piece: str) -> str:
+    for ch in piece:
+        if unicodedata.category(ch).startswith("L") and not ("A" <= ch.upper() <= "Z" or "\u00c0" <= ch <= "\u024f"):
+            script = unicodedata.name(ch, "UNKNOWN").split()[0].title()
+            return f"not in the Latin alphabet: {'CJK' if script == 'Cjk' else script}"
+    if any(unicodedata.category(ch) in ("So", "Sk", "Cs") or ord(ch) >= 0x1F000 for ch in piece):
+        return "an emoji or symbol, not a word"
+    return "characters the aligner cannot pronounce"
+
+
+def skipped_words(text: str) -> list[tuple[str, str]]:
+    """The pieces of a transcript :func:`normalize` leaves out because they
+    are not words it can pronounce (other scripts, emoji, stray symbols),
+    each with the reason; punctuation and stage directions are not listed."""
+    text = _strip_stage_directions(text.translate(_QUOTES))
+    gaps, last = [], 0
+    for m in _TOKEN.finditer(text):
+        gaps.append(text[last:m.start()])
+        last = m.end()
+    gaps.append(text[last:])
+    out = []
+    for gap in gaps:
+        for piece in gap.split():
+            core = piece.strip("\"'()[]{}<>*_~`^|\\/")
+            if any(unicodedata.category(ch)[0] in "LNS" for ch in core):
+                out.append((core, _skip_reason(core)))
+    return out
+
+
+def describe_skipped(skipped: list[tuple[str, str]]) -> str:
+    """``'😀' (an emoji or symbol, not a word), '你好' (not in the Latin alphabet: CJK)``."""
+    shown = ", ".join(f"{piece!r} ({why})" for piece, why in skipped[:12])
+    return shown + (f" and {len(skipped) - 12} more" if len(skipped) > 12 else "")
 
 
 def _word(tok: str, following: str | None, next_match) -> tuple[list[str], bool]:

@@ -71,3 +71,14 @@ def test_load_transcript_reads_utf16_and_cp1252(scene, tmp_path):
     (tmp_path / "c.txt").write_bytes(b"\x00\x00")
     with pytest.raises(RuntimeError, match="not a text file"):
         bpy.ops.emotive_lipsync.load_transcript(filepath=str(tmp_path / "c.txt"))
+
+
+def test_skipped_words_are_reported(scene, tmp_path, capsys):
+    """The batch command prints the operator's summary: it names the words left out."""
+    shutil.copy(BOB, tmp_path / "line.wav")
+    command = import_module(MODULE + ".blender.command")
+    assert command.execute(["--audio", str(tmp_path / "line.wav"), "--mesh", "Ada",
+                            "--text", "Bob 😀 bought 你好 a map."]) == 0
+    out = capsys.readouterr().out
+    assert "warning: 2 words of the transcript left out" in out and "'你好' (not in the Latin alphabet: CJK)" in out
+    assert "MBP" in keyed_shape_keys(bpy.data.objects["Ada"])
