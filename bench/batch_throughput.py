@@ -1,0 +1,172 @@
+"""Batch throughput on thousands of real short lines (../shared/data; skips
+when absent).
+
+Builds a manifest of short lines (0.6-4 s, the length of game dialogue) by
+cutting the shared recordings at word boundaries, each cut with the words of
+its reference transcript: the MFA clips at their reference word tiers, the
+praatIO sentences at theirs, and the LibriVox sonnets, the LibriSpeech
+utterance and the voice-quality clips at the word times of their whole
+reference transcript aligned once here.  Then it runs ``batch.run`` on a
+pool of one worker per core and reports
+
+* lines per second and the projected time for 16,000 lines (target on 2
+  cores: >= 10 lines/s, i.e. 16,000 lines in under 30 minutes);
+* the peak memory of each worker process (its VmHWM; target <= 300 MB);
+* that every line was written and how many words came out estimated.
+
+    .venv/bin/python bench/batch_throughput.py [--lines N] [--workers N] [--keep DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from common import DATA, need_data, write_wav
+from addon.engine import audio as audio_mod
+from addon.engine import batch
+from addon.engine.importers import read_alignment
+from addon.engine.pipeline import align_file
+
+MIN_LEN, MAX_LEN, MARGIN = 0.6, 4.0, 0.06
+
+
+def word_times() -> list[tuple[str, audio_mod.Audio, list[tuple[str, float, float]]]]:
+    """(name, audio, [(word, start, end)]) for every recording used."""
+    out = []
+    for name in ("acoustic_corpus", "cold_corpus"):
+        al = read_alignment(DATA / "mfa" / f"{name}.TextGrid")
+        out.append((name, audio_mod.load(DATA / "mfa" / f"{name}.wav"), [(w.text, w.start, w.end) for w in al.words]))
+    for name in ("mary", "damon_set_test"):
+        al = read_alignment(DATA / "praatio" / f"{name}.TextGrid")
+        out.append((name, audio_mod.load(DATA / "praatio" / f"{name}.wav"), [(w.text, w.start, w.end) for w in al.words]))
+    aligned = [(p.stem, p, p.with_suffix(".txt").read_text(encoding="utf-8"))
+               for p in sorted((DATA / "librivox").glob("*.mp3"))]
+    aligned.append(("61-70968-0000", DATA / "mfa" / "61-70968-0000.flac",
+                    (DATA / "mfa" / "61-70968-0000.lab").read_text(encoding="utf-8")))
+    for row in (DATA / "voice_quality" / "transcripts.tsv").read_text(encoding="utf-8").splitlines()[1:]:
+        fname, text, _ = row.split("\t")
+        aligned.append((Path(fname).stem, DATA / "voice_quality" / fname, text))
+    for name, path, text in aligned:
+        snd = audio_mod.load(path)
+        al = align_file(path, text)
+        out.append((name, snd, [(w.text, w.start, w.end) for w in al.words if not w.estimated]))
+    return out
+
+
+def spans(words: list[tuple[str, float, float]]):
+    """Every run of consecutive words lasting MIN_LEN-MAX_LEN s."""
+    for i in range(len(words)):
+        for j in range(i, len(words)):
+            d = words[j][2] - words[i][1]
+            if d > MAX_LEN:
+                break
+            if d >= MIN_LEN:
+                yield i, j
+
+
+def build(folder: Path, n_lines: int) -> Path:
+    """Cut the recordings into at most ``n_lines`` lines (spread evenly over
+    all the spans found); write the WAVs, transcripts and a CSV manifest."""
+    cuts = []
+    for name, snd, words in word_times():
+        for i, j in spans(words):
+            cuts.append((name, snd, words, i, j))
+    if len(cuts) > n_lines:
+        keep = np.linspace(0, len(cuts) - 1, n_lines).round().astype(int)
+        cuts = [cuts[k] for k in sorted(set(keep))]
+    rows = ["audio,transcript"]
+    for k, (name, snd, words, i, j) in enumerate(cuts):
+        lo = max(0.0, words[i][1] - MARGIN, words[i - 1][2] if i else 0.0)
+        hi = min(snd.duration, words[j][2] + MARGIN, words[j + 1][1] if j + 1 < len(words) else snd.duration)
+        samples = snd.samples[int(lo * snd.rate):int(hi * snd.rate)]
+        if snd.rate != 16000:
+            t = np.arange(int(len(samples) * 16000 / snd.rate)) / 16000
+            samples = np.interp(t, np.arange(len(samples)) / snd.rate, samples)
+        stem = f"{k:05d}_{name}"
+        write_wav(folder / f"{stem}.wav", samples)
+        (folder / f"{stem}.txt").write_text(" ".join(w for w, _, _ in words[i:j + 1]) + "\n", encoding="utf-8")
+        rows.append(f"{stem}.wav,{stem}.txt")
+    manifest = folder / "lines.csv"
+    manifest.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return manifest
+
+
+class WorkerMemory:
+    """Polls the high-water mark (VmHWM) of every process below this one."""
+
+    def __init__(self):
+        self.peak: dict[int, int] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+
+    def _poll(self):
+        import psutil
+
+        for child in psutil.Process().children(recursive=True):
+            try:
+                with open(f"/proc/{child.pid}/status") as fh:
+                    hwm = next(int(ln.split()[1]) for ln in fh if ln.startswith("VmHWM"))
+                self.peak[child.pid] = max(self.peak.get(child.pid, 0), hwm)
+            except (OSError, StopIteration):
+                pass
+
+    def _run(self):
+        while not self._stop.wait(0.25):
+            self._poll()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--lines", type=int, default=2400)
+    ap.add_argument("--workers", type=int, default=0)
+    ap.add_argument("--keep", metavar="DIR", help="build the lines here and keep them")
+    args = ap.parse_args()
+    need_data()
+    folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="lipsync_batch_"))
+    folder.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    manifest = build(folder, args.lines)
+    wavs = sorted(folder.glob("*.wav"))
+    total_audio = sum(audio_mod.load(p).duration for p in wavs[::50]) * 50
+    print(f"built {len(wavs)} lines (about {total_audio / 60:.0f} min of speech, "
+          f"{MIN_LEN}-{MAX_LEN} s each) in {time.perf_counter() - t0:.0f} s")
+
+    workers = args.workers or os.cpu_count() or 1
+    with WorkerMemory() as mem:
+        report = batch.run(manifest, workers=workers, force=True, progress=None)
+    rate = report.count("ok") / report.seconds
+    print(f"{workers} workers ({os.cpu_count()} cores): {report.summary()}")
+    print(f"  throughput {rate:.1f} lines/s  (target >= 10)")
+    print(f"  16,000 lines projected: {16000 / rate / 60:.1f} min  (target < 30 min)")
+    peaks = sorted(mem.peak.values(), reverse=True)
+    print("  peak memory per worker process: " + ", ".join(f"{p / 1024:.0f} MB" for p in peaks[:workers + 1])
+          + "  (target <= 300 MB)")
+    outs = [json.loads(Path(o).read_text()) for out in report.outcomes for o in out.outputs[:1]]
+    words = sum(len(o["words"]) for o in outs)
+    est = sum(w["estimated"] for o in outs for w in o["words"])
+    print(f"  {len(outs)} outputs, {words} words, {est} estimated ({100 * est / max(words, 1):.1f} %)")
+    for msg in report.failure_lines()[:10]:
+        print("  failed:", msg)
+    if not args.keep:
+        shutil.rmtree(folder)
+
+
+if __name__ == "__main__":
+    main()
