@@ -38,6 +38,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--csv", metavar="OUT", help="write the frame table as CSV")
     a.add_argument("--quiet", action="store_true", help="print nothing but errors and warnings")
     sub.add_parser("list", help="list built-in viseme sets and emotion presets")
+    _batch_parser(sub)
     le = sub.add_parser("learn", help="learn an emotion preset from example animation",
                         description="Learn a preset from clips: each AUDIO file with its face-capture CSV "
                                     "(AUDIO's name with .csv) and its transcript (.txt) or alignment "
@@ -64,6 +65,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command == "learn":
         return _learn(args)
+    if args.command == "batch":
+        return _batch(args)
     from .align import AlignSettings
     from .pipeline import analyze
 
@@ -157,3 +160,55 @@ def _learn(args) -> int:
               "keep using the built-in one (or add more clips)")
     print(f"wrote {preset_path} and {report_path}")
     return 0
+
+
+def _batch_parser(sub) -> None:
+    b = sub.add_parser("batch", help="lip-sync every line of a manifest (CSV or JSON lines)",
+                       description="Lip-sync every line of a manifest: a CSV file with a header or a JSON-lines "
+                                   "file whose lines name audio, and transcript (file), text (inline) or "
+                                   "alignment (file); optionally emotion, viseme_set, fps and output. Relative "
+                                   "paths are read from the manifest's folder. Lines whose outputs are newer "
+                                   "than their inputs are skipped.")
+    b.add_argument("manifest", help="the manifest: .csv with a header, or JSON lines")
+    b.add_argument("--out", metavar="DIR", help="write outputs under DIR (default: beside each audio file)")
+    b.add_argument("--json", action="store_true", help="write JSON results (the default when no format is given)")
+    b.add_argument("--csv", action="store_true", help="write CSV frame tables")
+    b.add_argument("--workers", type=int, default=0, help="worker processes (default: one per core)")
+    b.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786")
+    b.add_argument("--force", action="store_true", help="redo lines whose outputs are up to date")
+    b.add_argument("--report", metavar="FILE", help="write a JSON report of every line")
+    b.add_argument("--emotion", default="neutral", help="preset for lines that name none (default: neutral)")
+    b.add_argument("--viseme-set", default=None, help="viseme set for lines that name none")
+    b.add_argument("--fps", default="30", help="frame rate for lines that name none (default: 30)")
+    b.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
+    b.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
+    b.add_argument("--quiet", action="store_true", help="print nothing but failures")
+
+
+def _batch(args) -> int:
+    from . import batch
+
+    formats = tuple(f for f in ("json", "csv") if getattr(args, f)) or ("json",)
+    defaults = batch.Defaults(args.emotion, args.viseme_set, args.fps, args.coarticulation, args.dictionary)
+    try:
+        if args.workers < 0:
+            raise LipSyncError("--workers must be 0 (one per core) or more")
+        report = batch.run(args.manifest, defaults, formats=formats, out_dir=args.out, workers=args.workers,
+                           force=args.force, scheduler=args.scheduler)
+    except LipSyncError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("error: interrupted; finished lines are kept, run again to do the rest", file=sys.stderr)
+        return 130
+    if args.report:
+        try:
+            report.write(args.report)
+        except OSError as exc:
+            print(f"error: cannot write the report {args.report}: {batch.one_line_error(exc)}", file=sys.stderr)
+            return 1
+    for msg in report.failure_lines():
+        print(f"failed: {msg}", file=sys.stderr)
+    if not args.quiet:
+        print(report.summary())
+    return 0 if report.ok else 1
