@@ -352,3 +352,203 @@ def test_accented_latin_numbers_and_symbols_are_spoken_not_skipped(tmp_path):
     assert skipped_words(text) == []
     spoken = [w.text for w in normalize(text)]
     assert spoken[:3] == ["zoë", "paid", "five"] and "and" in spoken and "café" in spoken
+
+
+# --- Audio -------------------------------------------------------------------------
+
+def bob_samples():
+    with wave.open(str(FIXTURES / "bob_map.wav")) as w:
+        assert w.getsampwidth() == 2 and w.getnchannels() == 1
+        return np.frombuffer(w.readframes(w.getnframes()), "<i2") / 32768.0, w.getframerate()
+
+
+@pytest.fixture(scope="module")
+def bob_reference():
+    from addon.engine.pipeline import analyze
+
+    return analyze(str(FIXTURES / "bob_map.wav"), "Bob bought a map.")
+
+
+@pytest.mark.parametrize("rate, width, channels", [
+    (8000, 1, 1), (11025, 2, 2), (22050, 3, 1), (32000, 2, 1), (44100, 2, 2), (48000, 4, 1), (96000, 2, 6),
+])
+def test_any_rate_width_and_channel_count(tmp_path, bob_reference, rate, width, channels):
+    """The same line at other rates, sample widths and channel counts gives the same words at the same times."""
+    from addon.engine.pipeline import analyze
+
+    from addon.engine.audio import resample
+
+    x, r0 = bob_samples()
+    path = write_wav(tmp_path / "line.wav", resample(x, r0, rate), rate, width, channels)
+    result = analyze(str(path), "Bob bought a map.")
+    assert [w.text for w in result.alignment.words] == ["bob", "bought", "a", "map"]
+    assert not any(w.estimated for w in result.alignment.words)
+    assert result.duration == pytest.approx(bob_reference.duration, abs=0.01)
+    if rate >= r0 and width >= 2:   # the same sound: the same timings
+        for w, ref in zip(result.alignment.words, bob_reference.alignment.words):
+            assert abs(w.start - ref.start) < 0.02, (w, ref)
+            assert abs(w.end - ref.end) < 0.1, (w, ref)  # the last /p/'s release into silence varies
+
+
+def _audio_case(tmp_path, case):
+    p = tmp_path / "line.wav"
+    raw = (FIXTURES / "bob_map.wav").read_bytes()
+    if case == "missing":
+        return tmp_path / "nope.wav", ["audio file not found"]
+    if case == "folder":
+        (tmp_path / "take.wav").mkdir()
+        return tmp_path / "take.wav", ["is a folder"]
+    if case == "empty":
+        p.write_bytes(b"")
+        return p, ["empty (0 bytes)"]
+    if case == "header-only":
+        p.write_bytes(raw[:30])
+        return p, ["cannot read audio file", "Use WAV, FLAC, MP3 or AIFF"]
+    if case == "text":
+        p.write_text("this is not audio")
+        return p, ["cannot read audio file", "Not an audio file. Use"]
+    if case == "random":
+        p.write_bytes(np.random.default_rng(1).bytes(4000))
+        return p, ["cannot read audio file"]
+    if case == "ogg":
+        p = tmp_path / "line.ogg"
+        p.write_bytes(b"OggS\x00\x02" + bytes(200))
+        return p, ["an Ogg file", "convert it to WAV or FLAC"]
+    if case == "m4a":
+        p = tmp_path / "line.m4a"
+        p.write_bytes(b"\x00\x00\x00\x20ftypM4A " + bytes(200))
+        return p, ["MP4/M4A"]
+    if case == "silence":
+        return write_wav(p, np.zeros(16000)), ["holds no speech", "-120 dBFS"]
+    if case == "hum":
+        return write_wav(p, 1e-4 * np.sin(np.arange(32000) / 10)), ["holds no speech"]
+    if case == "noise":
+        return write_wav(p, np.random.default_rng(0).uniform(-0.5, 0.5, 32000)), ["holds no speech"]
+    if case == "too-short":
+        return write_wav(p, voiced(0.05)), ["too short", "0.050 s"]
+    if case == "one-sample":
+        return write_wav(p, np.array([0.1])), ["too short", "0.000 s"]
+    raise AssertionError(case)
+
+
+AUDIO_ERRORS = ["missing", "folder", "empty", "header-only", "text", "random", "ogg", "m4a", "silence",
+                "hum", "noise", "too-short", "one-sample"]
+
+
+@pytest.mark.parametrize("case", AUDIO_ERRORS)
+def test_unusable_audio_on_the_command_line(tmp_path, case):
+    path, words = _audio_case(tmp_path, case)
+    rc, so, se = run_cli("analyze", path, "--text", "Bob bought a map.", "--json", tmp_path / "o.json")
+    line = assert_error(rc, so, se, *words)
+    assert ".." not in line
+    if case not in ("silence", "hum", "noise"):
+        assert str(path) in line
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_truncated_wav_is_read_with_a_warning(tmp_path):
+    raw = (FIXTURES / "bob_map.wav").read_bytes()
+    path = tmp_path / "cut.wav"
+    path.write_bytes(raw[: len(raw) * 3 // 4])
+    out = tmp_path / "o.json"
+    rc, so, se = run_cli("analyze", path, "--text", "Bob bought a map.", "--json", out)
+    assert rc == 0, se
+    assert "Traceback" not in se and "PraatWarning" not in se
+    assert any(l.startswith("warning:") and "cut short" in l and str(path) in l for l in se.splitlines()), se
+    doc = json.loads(out.read_text())
+    assert any("cut short" in n for n in doc["notes"])
+    assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
+
+
+def test_clipped_audio_still_lip_syncs(tmp_path):
+    """Hard-clipped speech (every sample at full scale) is still speech."""
+    from addon.engine.pipeline import analyze
+
+    x, r0 = bob_samples()
+    path = write_wav(tmp_path / "loud.wav", np.clip(x * 50, -1, 1), r0)
+    result = analyze(str(path), "Bob bought a map.")
+    assert [w.text for w in result.alignment.words] == ["bob", "bought", "a", "map"]
+    assert np.all((result.curves >= 0) & (result.curves <= 1))
+
+
+# --- Presets and viseme-set files ----------------------------------------------------
+
+PRESETS = {
+    "not-json": (b"{nope", ["(file)", "not valid JSON", "line 1"]),
+    "list": (b"[1, 2]", ["(top level)", "JSON object"]),
+    "gain-text": (b'{"name": "x", "gain": "loud"}', ["'gain'", "'loud'"]),
+    "gain-nan": (b'{"name": "x", "gain": NaN}', ["'gain'", "nan"]),
+    "gain-inf": (b'{"name": "x", "gain": Infinity}', ["'gain'", "inf"]),
+    "gain-negative": (b'{"name": "x", "gain": -3}', ["'gain'", "-3"]),
+    "unknown-field": (b'{"name": "x", "gian": 1}', ["'gian'", "not a preset field"]),
+    "bad-base": (b'{"name": "x", "base": "grumpy"}', ["'base'", "'grumpy'", "not a preset"]),
+    "base-number": (b'{"name": "x", "base": 5}', ["'base'", "name of another preset"]),
+    "base-missing-file": (b'{"name": "x", "base": "/nonexistent/b.json"}', ["'base'", "/nonexistent/b.json",
+                                                                            "does not exist"]),
+    "base-itself": (b'{"name": "x", "base": "p.json"}', ["'base'", "chain is too long"]),
+    "binary": (b"\x00\xff\xfe\x01", ["not UTF-8"]),
+    "latin-1": ('{"name": "caf\xe9"}'.encode("latin-1"), ["not UTF-8", "byte 13"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(PRESETS))
+def test_malformed_preset_names_file_and_field(tmp_path, case):
+    content, words = PRESETS[case]
+    path = tmp_path / "p.json"
+    path.write_bytes(content)
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--emotion", path,
+                         "--json", tmp_path / "o.json", cwd=tmp_path)
+    assert_error(rc, so, se, path, *words)
+
+
+def test_preset_base_file_beside_the_preset(tmp_path):
+    from addon.engine import presets
+
+    (tmp_path / "b.json").write_text('{"name": "b", "base": "angry", "gain": 1.5}')
+    (tmp_path / "p.json").write_text('{"name": "p", "base": "b.json"}')
+    p = presets.load(tmp_path / "p.json")
+    assert p["name"] == "p" and p["gain"] == 1.5
+
+
+RANGE = '{"range": [0, 0.5, 1]}'
+VISEME_SETS = {
+    "empty-file": (b"", ["(file)", "not valid JSON"]),
+    "list": (b"[1]", ["(top level)", "JSON object"]),
+    "name-number": (b'{"name": 5}', ["'name'"]),
+    "visemes-list": (b'{"name": "v", "visemes": [], "phonemes": {}}', ["'visemes'"]),
+    "no-visemes": (b'{"name": "v", "visemes": {}, "phonemes": {}}', ["'visemes'", "empty"]),
+    "range-short": (('{"name": "v", "visemes": {"A": {"range": [1, 0.5]}}, "phonemes": {"AA": "A"}}').encode(),
+                    ["'visemes.A.range'", "three numbers"]),
+    "range-nan": (('{"name": "v", "visemes": {"A": {"range": [NaN, 0.5, 1]}}, "phonemes": {"AA": "A"}}').encode(),
+                  ["'visemes.A.range'", "nan"]),
+    "unknown-viseme": (('{"name": "v", "visemes": {"A": %s}, "phonemes": {"AA": "B"}}' % RANGE).encode(),
+                       ["'phonemes.AA'", "'B'"]),
+    "phones-missing": (('{"name": "v", "visemes": {"A": %s}, "phonemes": {"AA": "A"}}' % RANGE).encode(),
+                       ["'phonemes'", "does not map", "AE"]),
+    "binary": (b"\xff\xfe\x00", ["not UTF-8"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(VISEME_SETS))
+def test_malformed_viseme_set_names_file_and_field(tmp_path, case):
+    content, words = VISEME_SETS[case]
+    path = tmp_path / "v.json"
+    path.write_bytes(content)
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--viseme-set", path,
+                         "--json", tmp_path / "o.json")
+    assert_error(rc, so, se, path, *words)
+
+
+@pytest.mark.parametrize("flag, value, words", [
+    ("--emotion", "grumpy", ["grumpy:", "not a preset"]),
+    ("--viseme-set", "nope", ["nope:", "not a viseme set"]),
+    ("--emotion", "/nonexistent/p.json", ["does not exist"]),
+    ("--fps", "0", ["out of range"]),
+    ("--fps", "nan", ["frame rate"]),
+    ("--fps", "30/0", ["not a number"]),
+    ("--dictionary", "/nonexistent.dict", ["not found"]),
+])
+def test_bad_option_values(tmp_path, flag, value, words):
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", flag, value,
+                         "--json", tmp_path / "o.json")
+    assert_error(rc, so, se, *words)

@@ -46,7 +46,7 @@ def test_user_preset_overrides_base(tmp_path):
     ({"rules": {"deletion": {"phones": ["HH", "QQ"]}}}, "rules.deletion.phones"),
     ({"smoothing": 5}, "smoothing"),
     ({"wobble": 1}, "wobble"),
-    ({"base": "nonexistent"}, "name"),
+    ({"base": "nonexistent"}, "base"),
 ])
 def test_malformed_preset_names_the_field(tmp_path, doc, field):
     with pytest.raises(PresetError) as err:

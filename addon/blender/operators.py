@@ -99,6 +99,9 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
 
     def _inputs(self, context):
         """(mesh, clip, transcript, options): the properties, else the panel's settings."""
+        if self.frame < -1:
+            raise LipSyncError(f"start frame {self.frame} is not allowed: give 0 or later "
+                               "(-1: the panel's start frame)")
         scene = context.scene
         st = scene.emotive_lipsync
         obj = _mesh(context, self.mesh)

@@ -46,6 +46,8 @@ def decode(path: str) -> Audio:
     """Any file the sequencer can play -> mono float samples."""
     if not path:
         raise AudioError("no audio file given")
+    if os.path.isdir(path):
+        raise AudioError(f"audio path is a folder, not a file: {path}")
     if not os.path.isfile(path):
         raise AudioError(f"audio file not found: {path}")
     try:

@@ -559,6 +559,9 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     texts = list(texts or [f"word{i}" for i in range(n)])
     sources = list(sources or [""] * n)
     prons = [list(p) for p in words_phones]
+    if audio.duration < 0.1:
+        raise AudioError(f"the audio is too short to hold speech ({audio.duration:.3f} s; "
+                         "a line needs at least 0.1 s)")
     levels = frame_levels(audio)
     mask, _ = speech_mask(levels, audio)
     if not mask.any():

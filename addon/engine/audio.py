@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,6 +20,8 @@ MODEL_RATE = 16000
 class Audio:
     samples: np.ndarray  # float32, mono, in [-1, 1]
     rate: int
+    #: What the reader had to repair (a file cut short ...): shown to the user as warnings.
+    notes: list = field(default_factory=list)
 
     @property
     def duration(self) -> float:
@@ -131,12 +134,35 @@ def load(path: str | os.PathLike) -> Audio:
         raise AudioError(f"audio path is a folder, not a file: {path}")
     if os.path.getsize(path) == 0:
         raise AudioError(f"audio file is empty (0 bytes): {path}")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(12)
+    except OSError as exc:
+        raise AudioError(f"cannot read audio file {path}: {exc.strerror or exc}") from None
+    for magic, kind in _UNSUPPORTED:
+        if head.startswith(magic) or (magic == b"ftyp" and head[4:8] == magic):
+            raise AudioError(f"cannot read audio file {path}: it is {kind}, which this reader does not decode; "
+                             "convert it to WAV or FLAC (in Blender, a sound strip of it works)")
     import parselmouth
 
     try:
-        sound = parselmouth.Sound(path)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            sound = parselmouth.Sound(path)
     except Exception as exc:  # Praat says why in its own words
-        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        reason = str(exc).strip().splitlines()[0].strip().rstrip(".") if str(exc).strip() else type(exc).__name__
         raise AudioError(f"cannot read audio file {path}: {reason}. "
                          "Use WAV, FLAC, MP3 or AIFF.") from None
-    return from_samples(sound.values, sound.sampling_frequency)
+    snd = from_samples(sound.values, sound.sampling_frequency)
+    for w in caught:
+        msg = " ".join(str(w.message).split())
+        if "too small" in msg or "Missing samples" in msg:
+            msg = "the file is cut short (truncated); the missing end was read as silence"
+        snd.notes.append(f"audio file {path}: {msg}")
+    return snd
+
+
+#: Containers Praat cannot read, known by their first bytes, for a clearer
+#: message than Praat's "Not an audio file".
+_UNSUPPORTED = ((b"OggS", "an Ogg file (Vorbis or Opus)"), (b"ftyp", "an MP4/M4A file (AAC)"),
+                (b"\x1aE\xdf\xa3", "a Matroska/WebM file"), (b"0&\xb2u", "a Windows Media file"))

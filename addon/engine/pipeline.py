@@ -19,13 +19,15 @@ from . import audio as audio_mod
 from . import coarticulation, presets, prosody, visemes, weights
 from .align import AlignSettings, Alignment, align, check_transcript_matches
 from .audio import Audio
-from .errors import LipSyncError
+from .errors import AudioError, LipSyncError
 from .importers import read_alignment
 from .phonemes import CLASSES, phone_class
 from .pronounce import Lexicon
 from .text import describe_skipped, normalize, skipped_words
 
 MODELS = ("dominance", "rules")
+#: Shorter audio cannot hold a spoken word (s).
+MIN_SPEECH = 0.1
 SCHEMA_VERSION = 1
 
 #: Broadcast rates written with two decimals mean the NTSC ratios.
@@ -275,6 +277,10 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     if alignment is None:
         if text is None:
             raise LipSyncError("give a transcript, or an alignment file to import")
+        if snd.duration < MIN_SPEECH:
+            name = "the audio" if isinstance(audio, Audio) else f"audio file {os.fspath(audio)}"
+            raise AudioError(f"{name} is too short to hold speech ({snd.duration:.3f} s; "
+                             f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
         al = align_audio(snd, text, Lexicon.with_user_file(dictionary),
                          settings, lambda f: report("align", 0.1 + 0.7 * f))
@@ -293,12 +299,12 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     report("curves", 0.9)
     w, times, out = curves(al, pitch, inten, stats, vset, preset, coarticulation_model, fps)
     report("done", 1.0)
-    notes = list(al.notes)
+    notes = list(snd.notes) + list(al.notes)
     if not stats.voiced:
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
     closure = coarticulation.closure_track(times, [(p.phone, p.start, p.end) for p in al.phones])
     return Result(al.duration, fps, vset, preset.get("name", str(emotion)), coarticulation_model, al,
-                  pitch, inten, w, times, out, notes, closure, list(al.warnings))
+                  pitch, inten, w, times, out, notes, closure, list(snd.notes) + list(al.warnings))
 
 
 __all__ = ["analyze", "align_audio", "align_file", "curves", "parse_fps", "Result", "CLASSES"]

@@ -182,7 +182,9 @@ def merge(base: dict, over: dict) -> dict:
 
 def _read(path: Path) -> dict:
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = json.loads(path.read_text(encoding="utf-8-sig"))
+    except UnicodeDecodeError as exc:
+        raise PresetError(str(path), "(file)", f"is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
     except json.JSONDecodeError as exc:
         raise PresetError(str(path), "(file)", f"is not valid JSON: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
     except OSError as exc:
@@ -200,9 +202,16 @@ def resolve(doc: dict, source: str, _depth: int = 0) -> dict:
     if base_name is None or (doc.get("name") == "neutral" and source.endswith("neutral.json")):
         full = copy.deepcopy(doc)
     else:
-        if not isinstance(base_name, str):
+        if not isinstance(base_name, str) or not base_name.strip():
             raise PresetError(source, "base", "must be the name of another preset")
-        base = resolve(_read(_locate(base_name, source)), base_name, _depth + 1)
+        beside = Path(source).parent / base_name
+        if not Path(base_name).is_absolute() and Path(source).is_file() and beside.is_file():
+            base_name = str(beside)  # a base file named relative to the preset's own folder
+        try:
+            base_path = _locate(base_name, source)
+        except PresetError as exc:
+            raise PresetError(source, "base", f"names {base_name!r}, which {exc.problem}") from None
+        base = resolve(_read(base_path), str(base_path), _depth + 1)
         full = merge(base, {k: v for k, v in doc.items() if k != "base"})
     full.pop("base", None)
     return validate(full, source)

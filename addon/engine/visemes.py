@@ -89,9 +89,15 @@ def load(name_or_path: str | os.PathLike) -> VisemeSet:
     if not path.is_file():
         raise PresetError(str(path), "(file)", "does not exist")
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = json.loads(path.read_text(encoding="utf-8-sig"))
+    except UnicodeDecodeError as exc:
+        raise PresetError(str(path), "(file)", f"is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
     except json.JSONDecodeError as exc:
         raise PresetError(str(path), "(file)", f"is not valid JSON: {exc}") from None
+    except OSError as exc:
+        raise PresetError(str(path), "(file)", f"cannot be read: {exc.strerror or exc}") from None
+    if not isinstance(doc, dict):
+        raise PresetError(str(path), "(top level)", "must be a JSON object")
     return from_dict(doc, str(path))
 
 

@@ -82,3 +82,33 @@ def test_skipped_words_are_reported(scene, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "warning: 2 words of the transcript left out" in out and "'你好' (not in the Latin alphabet: CJK)" in out
     assert "MBP" in keyed_shape_keys(bpy.data.objects["Ada"])
+
+
+# --- audio and arguments -----------------------------------------------------------
+
+def test_audio_folder_and_bad_start_frame(scene, tmp_path):
+    ada = bpy.data.objects["Ada"]
+    assert _generate(mesh="Ada", filepath=BOB, frame=1, text="Bob bought a map.") == {"FINISHED"}
+    (tmp_path / "take.wav").mkdir()
+    _refused("audio path is a folder, not a file: " + str(tmp_path / "take.wav"), ada, mesh="Ada",
+             filepath=str(tmp_path / "take.wav"), frame=1, text="Bob")
+    _refused("start frame -5 is not allowed", ada, mesh="Ada", filepath=BOB, frame=-5, text="Bob")
+    _refused("audio file not found", ada, mesh="Ada", filepath=str(tmp_path / "nope.wav"), frame=1, text="Bob")
+    (tmp_path / "junk.wav").write_text("not audio")
+    msg = _refused("junk.wav", ada, mesh="Ada", filepath=str(tmp_path / "junk.wav"), frame=1, text="Bob")
+    assert ".." not in msg
+
+
+def test_too_short_and_silent_audio(scene, tmp_path):
+    import wave
+
+    import numpy as np
+
+    ada = bpy.data.objects["Ada"]
+    for name, seconds, level in (("short.wav", 0.05, 0.3), ("silent.wav", 1.0, 0.0)):
+        t = np.arange(int(seconds * 16000)) / 16000
+        with wave.open(str(tmp_path / name), "wb") as w:
+            w.setnchannels(1), w.setsampwidth(2), w.setframerate(16000)
+            w.writeframes((level * np.sin(2 * np.pi * 200 * t) * 32767).astype("<i2").tobytes())
+    _refused("too short to hold speech", ada, mesh="Ada", filepath=str(tmp_path / "short.wav"), frame=1, text="Bob")
+    _refused("holds no speech", ada, mesh="Ada", filepath=str(tmp_path / "silent.wav"), frame=1, text="Bob")
