@@ -28,29 +28,35 @@ def _set_items():
 VISEME_SETS = _set_items()
 
 
+#: A mesh's settings may be changed on a library override of it (Generate
+#: fills the mapping in), as on a local mesh.
+_OV = {"LIBRARY_OVERRIDABLE"}
+
+
 class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
     """One viseme driving one shape key with a weight."""
 
-    viseme: StringProperty(name="Viseme", description="Viseme of the mesh's viseme set")
-    shape_key: StringProperty(name="Shape Key", description="Shape key this viseme drives")
+    viseme: StringProperty(override=_OV, name="Viseme", description="Viseme of the mesh's viseme set")
+    shape_key: StringProperty(override=_OV, name="Shape Key", description="Shape key this viseme drives")
     weight: FloatProperty(name="Weight", description="How much of the viseme's curve goes into the shape key",
-                          default=1.0, min=0.0, soft_max=1.0, max=2.0)
+                          default=1.0, min=0.0, soft_max=1.0, max=2.0, override=_OV)
 
 
 class LIPSYNC_PG_object(bpy.types.PropertyGroup):
-    viseme_set: EnumProperty(name="Viseme Set", items=VISEME_SETS, default="AUTO",
+    viseme_set: EnumProperty(override=_OV, name="Viseme Set", items=VISEME_SETS, default="AUTO",
                              description="The mouth shapes this mesh's shape keys follow")
-    convention: StringProperty(name="Convention", description="The naming convention the mapping was made "
-                                                              "from (filled in by Auto-Map)")
-    mapped_set: StringProperty(name="Mapped Set", options={"HIDDEN"},
+    convention: StringProperty(override=_OV, name="Convention",
+                               description="The naming convention the mapping was made from (filled in by "
+                                           "Auto-Map)")
+    mapped_set: StringProperty(override=_OV, name="Mapped Set", options={"HIDDEN"},
                                description="The viseme set the mapping was made for")
-    closure_rule: StringProperty(name="Closure", options={"HIDDEN"},
+    closure_rule: StringProperty(override=_OV, name="Closure", options={"HIDDEN"},
                                  description="How this mesh's keys close the lips on /p b m/ (JSON, from the "
                                              "convention)")
-    viseme_set_file: StringProperty(name="Viseme Set File", subtype="FILE_PATH",
+    viseme_set_file: StringProperty(override=_OV, name="Viseme Set File", subtype="FILE_PATH",
                                     description="A viseme set JSON file (see the README)")
-    mapping: CollectionProperty(type=LIPSYNC_PG_mapping_item)
-    mapping_index: IntProperty(name="Active Mapping", default=0)
+    mapping: CollectionProperty(type=LIPSYNC_PG_mapping_item, override={"LIBRARY_OVERRIDABLE", "USE_INSERTION"})
+    mapping_index: IntProperty(override=_OV, name="Active Mapping", default=0)
 
     def viseme_set_source(self) -> str | None:
         """The chosen set's name or file; None for Automatic."""
@@ -177,7 +183,7 @@ def register():
     for c in classes:
         bpy.utils.register_class(c)
     bpy.types.Scene.emotive_lipsync = PointerProperty(type=LIPSYNC_PG_scene)
-    bpy.types.Object.emotive_lipsync = PointerProperty(type=LIPSYNC_PG_object)
+    bpy.types.Object.emotive_lipsync = PointerProperty(type=LIPSYNC_PG_object, override=_OV)
 
 
 def unregister():

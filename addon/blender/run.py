@@ -68,7 +68,38 @@ def check_mesh(obj) -> list[str]:
     if key is None or len(key.key_blocks) < 2:
         raise LipSyncError(f"mesh {obj.name!r} has no shape keys to animate: add a Basis key and the mouth "
                            "shapes (see sample_rigs/ for examples)")
+    check_editable(obj)
     return [kb.name for kb in key.key_blocks]
+
+
+def _linked_from(idb) -> str | None:
+    """Why a datablock cannot be changed here: linked from a library, or a
+    library override the user has not made editable; None if it can."""
+    lib = getattr(idb, "library", None)
+    if lib is not None:
+        return f"linked from the library {lib.filepath!r}"
+    ov = getattr(idb, "override_library", None)
+    if ov is not None and getattr(ov, "is_system_override", False):
+        return "a non-editable library override"
+    return None
+
+
+def check_editable(obj) -> None:
+    """A clear error if the mesh's shape-key animation cannot be written
+    here: the object, its mesh, its shape keys or their action linked from a
+    library (the keys would be lost on reload, or refused).  An editable
+    library override of the object and its mesh works."""
+    key = obj.data.shape_keys
+    action = key.animation_data.action if key is not None and key.animation_data is not None else None
+    for what, idb in ((f"object {obj.name!r}", obj), (f"mesh data {obj.data.name!r}", obj.data),
+                      (f"shape keys {key.name!r}" if key is not None else "", key),
+                      (f"action {action.name!r}" if action is not None else "", action)):
+        why = _linked_from(idb) if idb is not None else None
+        if why:
+            fix = ("assign a local action to the shape keys" if idb is action else
+                   "make a library override of it and its mesh (Object > Library Override > Make, "
+                   "then make the mesh editable) or make it local (Object > Relations > Make Local)")
+            raise LipSyncError(f"{obj.name!r} cannot be animated: its {what} is {why}; {fix}. Nothing was changed")
 
 
 def _rig_of(obj):

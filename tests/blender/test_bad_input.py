@@ -112,3 +112,74 @@ def test_too_short_and_silent_audio(scene, tmp_path):
             w.writeframes((level * np.sin(2 * np.pi * 200 * t) * 32767).astype("<i2").tobytes())
     _refused("too short to hold speech", ada, mesh="Ada", filepath=str(tmp_path / "short.wav"), frame=1, text="Bob")
     _refused("holds no speech", ada, mesh="Ada", filepath=str(tmp_path / "silent.wav"), frame=1, text="Bob")
+
+
+# --- linked (library) meshes -----------------------------------------------------------
+
+def _link_ada(scene, tmp_path, keyed=True):
+    """Ada (lip-synced once if ``keyed``) written to a library .blend and linked into a new file."""
+    if keyed:
+        assert _generate(mesh="Ada", filepath=BOB, frame=1, text="Bob bought a map.") == {"FINISHED"}
+    lib = str(tmp_path / "characters.blend")
+    bpy.data.libraries.write(lib, {bpy.data.objects["Ada"]}, fake_user=True)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(lib, link=True) as (_src, dst):
+        dst.objects = ["Ada"]
+    ada = dst.objects[0]
+    bpy.context.scene.collection.objects.link(ada)
+    bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = 30, 1.0
+    return ada
+
+
+def test_linked_mesh_is_refused_and_unchanged(scene, tmp_path):
+    ada = _link_ada(scene, tmp_path)
+    assert ada.library is not None and ada.data.shape_keys.library is not None
+    keyed = keyed_shape_keys(ada)
+    assert "MBP" in keyed
+    msg = _refused("linked from the library", ada, mesh="Ada", filepath=BOB, frame=40, text="Bob bought a map.")
+    assert "characters.blend" in msg and "Nothing was changed" in msg
+    with pytest.raises(RuntimeError, match="linked from the library"):
+        bpy.ops.emotive_lipsync.clear(mesh="Ada")
+    assert keyed_shape_keys(ada) == keyed
+
+
+def test_override_of_the_object_alone_is_refused(scene, tmp_path):
+    ada = _link_ada(scene, tmp_path)
+    over = ada.override_create(remap_local_usages=True)
+    assert over.library is None and over.data.library is not None
+    _refused("mesh data 'Ada' is linked", over, mesh=over.name, filepath=BOB, frame=1, text="Bob bought a map.")
+
+
+def test_editable_override_of_object_and_mesh_works(scene, tmp_path):
+    ada = _link_ada(scene, tmp_path, keyed=False)
+    over = ada.override_create(remap_local_usages=True)
+    over.data.override_create(remap_local_usages=True)
+    assert over.data.library is None and over.data.shape_keys.library is None
+    assert _generate(mesh=over.name, filepath=BOB, frame=1, text="Bob bought a map.") == {"FINISHED"}
+    assert "MBP" in keyed_shape_keys(over)
+    assert bpy.ops.emotive_lipsync.clear(mesh=over.name) == {"FINISHED"}
+    assert keyed_shape_keys(over) == set()
+
+
+def test_override_keeps_a_linked_action_and_says_so(scene, tmp_path):
+    """The library's own lip sync stays in its (linked) action: a clear error, not a silent copy."""
+    ada = _link_ada(scene, tmp_path)
+    over = ada.override_create(remap_local_usages=True)
+    over.data.override_create(remap_local_usages=True)
+    _refused("action 'Ada_LipSync' is linked", over, mesh=over.name, filepath=BOB, frame=1, text="Bob")
+
+
+def test_linked_action_on_a_local_mesh_is_refused(scene, tmp_path):
+    ada = bpy.data.objects["Ada"]
+    assert _generate(mesh="Ada", filepath=BOB, frame=1, text="Bob bought a map.") == {"FINISHED"}
+    action = ada.data.shape_keys.animation_data.action
+    action.name = "AdaTalk"
+    lib = str(tmp_path / "actions.blend")
+    bpy.data.libraries.write(lib, {action}, fake_user=True)
+    with bpy.data.libraries.load(lib, link=True) as (_src, dst):
+        dst.actions = ["AdaTalk"]
+    linked = dst.actions[0]
+    assert linked.library is not None
+    ada.data.shape_keys.animation_data.action = linked
+    assert ada.data.shape_keys.animation_data.action == linked
+    _refused("action 'AdaTalk' is linked", ada, mesh="Ada", filepath=BOB, frame=1, text="Bob bought a map.")
