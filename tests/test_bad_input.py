@@ -552,3 +552,37 @@ def test_bad_option_values(tmp_path, flag, value, words):
     rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", flag, value,
                          "--json", tmp_path / "o.json")
     assert_error(rc, so, se, *words)
+
+
+# --- Transcripts that do not fit the audio ---------------------------------------------
+
+def test_transcript_much_shorter_than_the_speech_warns(tmp_path):
+    out = tmp_path / "o.json"
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--json", out)
+    assert rc == 0, se
+    warn = [l for l in se.splitlines() if l.startswith("warning:")]
+    assert len(warn) == 1 and "not covered by the transcript's words" in warn[0], se
+    doc = json.loads(out.read_text())
+    assert [w["word"] for w in doc["words"]] == ["bob"]
+    assert any("is the transcript complete" in n for n in doc["notes"])
+
+
+def test_complete_transcript_gives_no_warning(tmp_path):
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--transcript", FIXTURES / "bob_map.txt",
+                         "--json", tmp_path / "o.json")
+    assert rc == 0 and "warning" not in se, se
+
+
+@pytest.mark.parametrize("text", ["Bob bought a map. " * 8, "Maybe Bobby makes pumpkin pie, baby."],
+                         ids=["far-longer", "another-line"])
+def test_transcript_that_does_not_fit_is_an_error(tmp_path, text):
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", text, "--json", tmp_path / "o.json")
+    assert_error(rc, so, se, "could not be aligned", "does the transcript belong to this recording")
+
+
+def test_numbers_are_spoken(tmp_path):
+    from addon.engine.pipeline import analyze
+
+    result = analyze(str(FIXTURES / "bob_map.wav"), "Bob bought 1 map.")
+    assert [w.text for w in result.alignment.words] == ["bob", "bought", "one", "map"]
+    assert not result.warnings

@@ -610,7 +610,30 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         words.append(AlignedWord(texts[wi], ph[0][1], ph[-1][2], prons[wi], sources[wi], est[wi]))
         for p, a, b in ph:
             phones.append(AlignedPhone(p, a, b, wi, est[wi]))
-    return Alignment(words, phones, audio.duration, notes)
+    warnings = []
+    extra = unspoken_speech(mask, words)
+    if extra:
+        seconds, first, last = extra
+        warnings.append(f"{seconds:.1f} s of speech between {first:.2f} s and {last:.2f} s is not covered by "
+                        "the transcript's words: is the transcript complete? (that part stays at rest)")
+    return Alignment(words, phones, audio.duration, warnings + notes, warnings)
+
+
+def unspoken_speech(mask: np.ndarray, words: list[AlignedWord], margin: float = 0.2
+                    ) -> tuple[float, float, float] | None:
+    """Speech (``mask``, one flag per :data:`FRAME`) that no word lies on,
+    when there is much of it (over 0.5 s and a quarter of all speech): a
+    transcript that lacks part of what is said.  (seconds, first, last)."""
+    t = np.arange(len(mask)) * FRAME
+    covered = np.zeros(len(mask), bool)
+    for w in words:
+        covered |= (t >= w.start - margin) & (t <= w.end + margin)
+    extra = mask & ~covered
+    seconds = float(extra.sum()) * FRAME
+    if seconds <= 0.5 or seconds <= 0.25 * float(mask.sum()) * FRAME:
+        return None
+    idx = np.flatnonzero(extra)
+    return seconds, float(t[idx[0]]), float(t[idx[-1]] + FRAME)
 
 
 def _split_words(audio: Audio, prons: list[list[str]], settings: AlignSettings) -> tuple[int, float] | None:

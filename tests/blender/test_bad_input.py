@@ -183,3 +183,46 @@ def test_linked_action_on_a_local_mesh_is_refused(scene, tmp_path):
     ada.data.shape_keys.animation_data.action = linked
     assert ada.data.shape_keys.animation_data.action == linked
     _refused("action 'AdaTalk' is linked", ada, mesh="Ada", filepath=BOB, frame=1, text="Bob bought a map.")
+
+
+# --- meshes ------------------------------------------------------------------------------
+
+def test_no_mesh_basis_only_and_non_mesh(scene):
+    ada = bpy.data.objects["Ada"]
+    assert _generate(mesh="Ada", filepath=BOB, frame=1, text="Bob bought a map.") == {"FINISHED"}
+    before = _snapshot(ada)
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    with pytest.raises(RuntimeError, match="has no shape keys to animate"):
+        _generate(mesh=cube.name, filepath=BOB, frame=1, text="Bob")
+    cube.shape_key_add(name="Basis")
+    with pytest.raises(RuntimeError, match="has no shape keys to animate"):
+        _generate(mesh=cube.name, filepath=BOB, frame=1, text="Bob")
+    assert cube.data.shape_keys.animation_data is None and len(cube.data.shape_keys.key_blocks) == 1
+    cam = bpy.data.objects["Camera"]
+    with pytest.raises(RuntimeError, match="'Camera' is a camera, not a mesh"):
+        _generate(mesh="Camera", filepath=BOB, frame=1, text="Bob")
+    with pytest.raises(RuntimeError, match="no object named 'Nobody'"):
+        _generate(mesh="Nobody", filepath=BOB, frame=1, text="Bob")
+    bpy.context.view_layer.objects.active = None
+    scene.emotive_lipsync.target = None
+    with pytest.raises(RuntimeError, match="no face mesh"):
+        _generate(filepath=BOB, frame=1, text="Bob")
+    with pytest.raises(RuntimeError, match="is a camera, not a mesh"):
+        bpy.ops.emotive_lipsync.clear(mesh="Camera")
+    assert cam.animation_data is None
+    assert _snapshot(ada) == before
+
+
+def test_clear_on_a_mesh_never_lip_synced_changes_nothing(scene):
+    kit = bpy.data.objects["Kit"]
+    before = _snapshot(kit)
+    assert bpy.ops.emotive_lipsync.clear(mesh="Kit") == {"CANCELLED"}
+    assert _snapshot(kit) == before
+
+
+def test_transcript_of_other_scripts_and_punctuation(scene):
+    ada = bpy.data.objects["Ada"]
+    _refused("no words the aligner can use: 'Привет'", ada, mesh="Ada", filepath=BOB, frame=1, text="Привет мир")
+    _refused("no spoken words", ada, mesh="Ada", filepath=BOB, frame=1, text="... ?! --")
+    assert keyed_shape_keys(ada) == set()
