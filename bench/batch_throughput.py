@@ -11,6 +11,8 @@ pool of one worker per core and reports
 
 * lines per second and the projected time for 16,000 lines (target on 2
   cores: >= 10 lines/s, i.e. 16,000 lines in under 30 minutes);
+* the worker processes' CPU time per line, which does not depend on what
+  else runs on the machine, and the rate it allows on idle cores;
 * the peak memory of each worker process (its VmHWM; target <= 300 MB);
 * that every line was written and how many words came out estimated.
 
@@ -105,6 +107,7 @@ class WorkerMemory:
 
     def __init__(self):
         self.peak: dict[int, int] = {}
+        self.cpu: dict[int, float] = {}     # user + system seconds of each process
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
 
@@ -124,7 +127,9 @@ class WorkerMemory:
                 with open(f"/proc/{child.pid}/status") as fh:
                     hwm = next(int(ln.split()[1]) for ln in fh if ln.startswith("VmHWM"))
                 self.peak[child.pid] = max(self.peak.get(child.pid, 0), hwm)
-            except (OSError, StopIteration):
+                t = child.cpu_times()
+                self.cpu[child.pid] = t.user + t.system
+            except (OSError, StopIteration, psutil.Error):
                 pass
 
     def _run(self):
@@ -155,6 +160,9 @@ def main():
     print(f"{workers} workers ({os.cpu_count()} cores): {report.summary()}")
     print(f"  throughput {rate:.1f} lines/s  (target >= 10)")
     print(f"  16,000 lines projected: {16000 / rate / 60:.1f} min  (target < 30 min)")
+    cpu = sum(mem.cpu.values()) / max(report.count("ok"), 1)
+    print(f"  worker CPU per line {1000 * cpu:.0f} ms: {os.cpu_count() / cpu:.1f} lines/s on {os.cpu_count()} "
+          "otherwise idle cores (the rate above is lower when other programs share the cores)")
     peaks = sorted(mem.peak.values(), reverse=True)
     print("  peak memory per worker process: " + ", ".join(f"{p / 1024:.0f} MB" for p in peaks[:workers + 1])
           + "  (target <= 300 MB)")
