@@ -2,11 +2,15 @@
 
     blender -b scene.blend --command lipsync --all-strips --output out.blend
     blender -b scene.blend --command lipsync --mesh Bob --audio line1.wav --audio line2.wav --save
+    blender -b scene.blend --command lipsync --manifest lines.csv --save
 
 Each ``--audio`` file is placed after the previous one (from ``--frame``,
 or the scene's start), with its transcript from ``--text``/``--transcript``
 or the .txt beside it.  Strips go to their own mesh by the rule that
-*Generate for All Strips* uses.  The exit status is 0 when everything was
+*Generate for All Strips* uses.  A manifest (CSV or JSON lines, read by
+:mod:`..engine.batch`) names many lines onto many meshes.  Every line runs
+through the engine's batch runner in this process, the models loaded once.
+The exit status is 0 when everything was
 lip-synced, 1 when something was not (each problem is printed), 2 for a
 usage error.
 """
@@ -14,12 +18,13 @@ usage error.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 
 import bpy
 
-from ..engine import presets, visemes
+from ..engine import batch, presets, visemes
 from ..engine.errors import LipSyncError
 from ..engine.text import read_text_file
 from . import compat, run, sources
@@ -35,6 +40,10 @@ def parser() -> argparse.ArgumentParser:
     what.add_argument("--all-strips", action="store_true", help="every sound strip of the scene")
     what.add_argument("--audio", action="append", default=[], metavar="FILE", help="an audio file (repeatable)")
     what.add_argument("--frame", type=int, help="frame the first --audio file starts on (default: scene start)")
+    what.add_argument("--manifest", metavar="FILE",
+                      help="CSV (with a header) or JSON lines naming per line a 'strip', or an 'audio' file "
+                           "(placed at its 'frame', else after the previous one) and a 'mesh'; optional "
+                           "'transcript', 'text', 'emotion', 'viseme_set'")
     ap.add_argument("--scene", help="scene name (default: the file's active scene)")
     ap.add_argument("--mesh", help="face mesh (required for --audio; for strips, used when a strip names none)")
     text = ap.add_mutually_exclusive_group()
@@ -72,6 +81,75 @@ def _set_viseme_set(obj, value: str) -> None:
     st.mapping.clear()
 
 
+def _lines(args, scene, mesh) -> list[batch.Line]:
+    """What to lip-sync, as batch lines: the manifest's, else one per
+    ``--audio`` file, else one per strip."""
+    if args.manifest:
+        return [ln if ln.problem or ln.audio or "strip" in ln.extra else
+                _with_problem(ln, "name a 'strip', or an 'audio' file and a 'mesh'")
+                for ln in batch.read_manifest(bpy.path.abspath(args.manifest), formats=())]
+    if args.audio:
+        if mesh is None:
+            raise LipSyncError("--audio needs --mesh")
+        return [batch.Line(k, audio=path) for k, path in enumerate(args.audio, 1)]
+    strips = [sources.strip_by_name(scene, n) for n in args.strip]
+    if args.all_strips or not args.strip:
+        strips = compat.sound_strips_in_order(scene)
+        if not strips:
+            raise LipSyncError(f"scene {scene.name!r} has no sound strips")
+    return [batch.Line(k, extra={"strip": s.name}) for k, s in enumerate(strips, 1)]
+
+
+def _with_problem(line: batch.Line, problem: str) -> batch.Line:
+    line.problem = problem
+    return line
+
+
+def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, state) -> run.Summary:
+    """Lip-sync one line onto its mesh (raises LipSyncError)."""
+    if line.problem:
+        raise LipSyncError(line.problem)
+    if line.alignment:
+        raise LipSyncError("an 'alignment' column is not used in Blender: give 'transcript' or 'text'")
+    if "mesh" in line.extra:
+        mesh = bpy.data.objects.get(line.extra["mesh"])
+        if mesh is None:
+            raise LipSyncError(f"no object named {line.extra['mesh']!r}")
+    strip = sources.strip_by_name(scene, line.extra["strip"]) if "strip" in line.extra else None
+    if strip is not None:
+        obj = sources.strip_target(strip, mesh)
+        if obj is None:
+            raise LipSyncError(f"strip {strip.name!r}: no mesh (give --mesh, set the strip's "
+                               "lipsync_target property, or name the strip after the mesh)")
+        clip = sources.strip_clip(scene, strip)
+    else:
+        obj = mesh
+        if obj is None:
+            raise LipSyncError(f"{line.audio}: no mesh (give a 'mesh' column or --mesh)")
+        frame = state["frame"]
+        if "frame" in line.extra:
+            try:
+                frame = int(line.extra["frame"])
+            except ValueError:
+                raise LipSyncError(f"frame {line.extra['frame']!r} is not a whole number") from None
+        clip = sources.file_clip(line.audio, frame)
+        state["frame"] = frame + math.ceil(clip.audio.duration * sources.scene_fps(scene)) + 1
+    viseme_set = line.viseme_set or args.viseme_set
+    if viseme_set and (line.viseme_set or obj is not mesh or args.manifest):
+        _set_viseme_set(obj, viseme_set)
+    if fixed is not None:
+        text = fixed
+    elif line.text is not None or line.transcript:
+        text = batch.line_text(line)
+    elif strip is not None:
+        text = sources.strip_transcript(strip, clip.audio_path)[0]
+    else:
+        text = sources.transcript(audio_path=clip.audio_path)[0]
+    if line.emotion:
+        options = dataclasses.replace(options, emotion=presets.load(line.emotion))
+    return run.generate(scene, obj, clip, text, options)
+
+
 def execute(argv: list[str]) -> int:
     try:
         args = parser().parse_args(argv)
@@ -101,47 +179,33 @@ def execute(argv: list[str]) -> int:
         if fixed is not None and len(args.audio) + len(args.strip) != 1:
             raise LipSyncError("--text/--transcript need exactly one --strip or --audio; for several, put a "
                                ".txt beside each audio file")
-        jobs = []  # (mesh, clip factory, transcript)
-        if args.audio:
-            if mesh is None:
-                raise LipSyncError("--audio needs --mesh")
-            frame = args.frame if args.frame is not None else scene.frame_start
-            for path in args.audio:
-                clip = sources.file_clip(path, frame)
-                frame += math.ceil(clip.audio.duration * sources.scene_fps(scene)) + 1
-                jobs.append((mesh, clip, None))
-        strips = [sources.strip_by_name(scene, n) for n in args.strip]
-        if args.all_strips or (not args.strip and not args.audio):
-            strips = compat.sound_strips_in_order(scene)
-            if not strips:
-                raise LipSyncError(f"scene {scene.name!r} has no sound strips")
-        for strip in strips:
-            jobs.append((strip, None, None))
+        if args.manifest and (args.audio or args.strip or args.all_strips or fixed is not None):
+            raise LipSyncError("--manifest names every line itself: leave out --strip, --audio, --all-strips, "
+                               "--text and --transcript")
+        jobs = _lines(args, scene, mesh)
     except LipSyncError as exc:
         print(f"lipsync: {exc}", file=sys.stderr)
         return 1
 
-    for target, clip, _ in jobs:
+    # Every line, from a manifest or from the options, goes through the batch
+    # runner in this process: the models are loaded once for all of them.
+    batch.warm(options.dictionary)
+    state = {"frame": args.frame if args.frame is not None else scene.frame_start}
+
+    def key_line(line: batch.Line, _defaults) -> batch.Outcome:
         try:
-            if clip is None:  # a strip
-                strip = target
-                obj = sources.strip_target(strip, mesh)
-                if obj is None:
-                    raise LipSyncError(f"strip {strip.name!r}: no mesh (give --mesh, set the strip's "
-                                       "lipsync_target property, or name the strip after the mesh)")
-                if args.viseme_set and obj is not mesh:
-                    _set_viseme_set(obj, args.viseme_set)
-                clip = sources.strip_clip(scene, strip)
-                text = fixed if fixed is not None else sources.strip_transcript(strip, clip.audio_path)[0]
-            else:
-                obj = target
-                text = fixed if fixed is not None else sources.transcript(audio_path=clip.audio_path)[0]
-            summary = run.generate(scene, obj, clip, text, options)
-            done.append(summary)
-            print(summary.message())
+            summary = _key_line(scene, line, mesh, fixed, options, args, state)
         except LipSyncError as exc:
-            problems.append(str(exc))
-            print(f"lipsync: {exc}", file=sys.stderr)
+            where = f"line {line.number}: " if args.manifest else ""
+            problems.append(f"{where}{exc}")
+            print(f"lipsync: {where}{exc}", file=sys.stderr)
+            return batch.Outcome(line.number, line.label(), "failed", error=str(exc))
+        done.append(summary)
+        print(summary.message())
+        return batch.Outcome(line.number, line.label(), "ok")
+
+    for _ in batch.run_inline(jobs, batch.Defaults(), key_line):
+        pass
 
     if done and (args.save or args.output):
         if args.output:

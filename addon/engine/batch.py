@@ -204,7 +204,7 @@ def read_manifest(path: str | os.PathLike, formats: Iterable[str] = ("json",),
     second with a problem."""
     path = Path(path)
     base = path.resolve().parent
-    formats = tuple(formats) or ("json",)
+    formats = tuple(formats)
     lines = [_line(n, row, base, formats, out_dir) for n, row in _rows(path)]
     if not lines:
         raise LipSyncError(f"manifest {path} names no lines")
