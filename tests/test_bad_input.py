@@ -586,3 +586,19 @@ def test_numbers_are_spoken(tmp_path):
     result = analyze(str(FIXTURES / "bob_map.wav"), "Bob bought 1 map.")
     assert [w.text for w in result.alignment.words] == ["bob", "bought", "one", "map"]
     assert not result.warnings
+
+
+def test_aligner_running_out_of_memory_is_an_error_not_a_traceback(tmp_path, monkeypatch, capsys):
+    """A worker killed by the system (a very long recording) is reported in one line."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from addon.engine import cli, pipeline
+
+    def killed(*a, **k):
+        raise BrokenProcessPool("A process in the process pool was terminated abruptly")
+
+    monkeypatch.setattr(pipeline, "align", killed)
+    rc = cli.main(["analyze", str(FIXTURES / "bob_map.wav"), "--text", "Bob", "--json", str(tmp_path / "o.json")])
+    err = capsys.readouterr().err
+    assert rc == 1 and "Traceback" not in err
+    assert "error: the aligner ran out of memory" in err and "split the recording" in err

@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Callable
@@ -19,7 +20,7 @@ from . import audio as audio_mod
 from . import coarticulation, presets, prosody, visemes, weights
 from .align import AlignSettings, Alignment, align, check_transcript_matches
 from .audio import Audio
-from .errors import AudioError, LipSyncError
+from .errors import AlignmentError, AudioError, LipSyncError
 from .importers import read_alignment
 from .phonemes import CLASSES, phone_class
 from .pronounce import Lexicon
@@ -60,8 +61,13 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     lexicon = lexicon or Lexicon()
     words = normalize(text)
     prons = [lexicon.pronounce(w) for w in words]
-    al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
-               [w.text for w in words], [p.source for p in prons], settings, progress)
+    try:
+        al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
+                   [w.text for w in words], [p.source for p in prons], settings, progress)
+    except (BrokenProcessPool, MemoryError):
+        raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
+                             f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
+                             "lines") from None
     check_transcript_matches(al)
     skipped = skipped_words(text)
     if skipped:
