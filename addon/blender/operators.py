@@ -9,7 +9,6 @@ before anything has been written.
 from __future__ import annotations
 
 import os
-import traceback
 
 import bpy
 from bpy.props import FloatProperty, IntProperty, StringProperty
@@ -67,12 +66,7 @@ class _Progress:
 
 
 def _fail(op, exc: Exception) -> set:
-    if isinstance(exc, LipSyncError):
-        op.report({"ERROR"}, str(exc))
-    else:
-        traceback.print_exc()
-        op.report({"ERROR"}, f"Lip sync failed unexpectedly ({type(exc).__name__}: {exc}); "
-                             "the console has the details")
+    op.report({"ERROR"}, jobs.failure("Lip sync", exc).message)
     return {"CANCELLED"}
 
 
@@ -251,15 +245,12 @@ Rhubarb ...)"""
     def execute(self, context):
         try:
             obj = _mesh(context, self.mesh)
-            st = obj.emotive_lipsync
-            if self.viseme_set in ("guess", "AUTO"):
-                st.viseme_set = "AUTO"
-            elif self.viseme_set:
-                if self.viseme_set not in visemes.builtin_names():
-                    raise LipSyncError(f"{self.viseme_set!r} is not a built-in viseme set: "
-                                       f"{', '.join(visemes.builtin_names())}")
-                st.viseme_set = self.viseme_set
-            found = run.detect(obj, convention=self.convention or None)
+            chosen = "AUTO" if self.viseme_set in ("guess", "AUTO") else (self.viseme_set or None)
+            if chosen not in (None, "AUTO") and chosen not in visemes.builtin_names():
+                raise LipSyncError(f"{chosen!r} is not a built-in viseme set: {', '.join(visemes.builtin_names())}")
+            found = run.detect(obj, viseme_set=chosen, convention=self.convention or None)
+            if chosen:   # only once the mapping is found: a failed Auto-Map changes nothing
+                obj.emotive_lipsync.viseme_set = chosen
             run.apply(obj, found)
             vset = run.mesh_viseme_set(obj)
         except Exception as exc:  # noqa: BLE001

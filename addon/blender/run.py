@@ -149,12 +149,15 @@ def detect(obj, viseme_set: str | None = None, convention: str | None = None) ->
     """The naming convention ``obj``'s shape keys follow, mapped onto them.
 
     ``viseme_set`` (a built-in name or a file) limits the choice to that
-    set's conventions (default: the mesh's own setting; Automatic: any);
-    ``convention`` forces one by name.
+    set's conventions; ``"AUTO"`` allows any; None: the mesh's own setting.
+    ``convention`` forces one by name.  Nothing on the mesh is changed.
     """
     names = check_mesh(obj)
     st = obj.emotive_lipsync
-    source = viseme_set if viseme_set is not None else st.viseme_set_source()
+    if viseme_set is None:
+        source = st.viseme_set_source()
+    else:
+        source = None if viseme_set == "AUTO" else viseme_set
     sets = {n: visemes.load(n) for n in visemes.builtin_names()}
     if source is not None and source not in sets:
         own = visemes.load(source)                 # a studio's own set: matched by its own names

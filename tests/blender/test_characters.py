@@ -116,6 +116,8 @@ def test_unknown_names_say_what_is_known(empty_scene):
         bpy.ops.emotive_lipsync.auto_map(mesh="Blob")
     with pytest.raises(RuntimeError, match="match the viseme set 'oculus'"):
         bpy.ops.emotive_lipsync.auto_map(mesh="Blob", viseme_set="oculus")
+    blob = bpy.data.objects["Blob"].emotive_lipsync
+    assert blob.viseme_set == "AUTO" and len(blob.mapping) == 0  # a failed Auto-Map changes nothing
 
 
 def test_panel_says_which_convention(empty_scene):
