@@ -270,13 +270,15 @@ class LIPSYNC_OT_mapping_add(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        obj = context.scene.emotive_lipsync.target or context.active_object
-        if obj is None or obj.type != "MESH":
-            self.report({"ERROR"}, "no face mesh")
-            return {"CANCELLED"}
+        try:
+            obj = _mesh(context, "")
+            run.check_mesh(obj)
+            first = run.mesh_viseme_set(obj).visemes[0]
+        except Exception as exc:  # noqa: BLE001
+            return _fail(self, exc)
         st = obj.emotive_lipsync
         item = st.mapping.add()
-        item.viseme = run.mesh_viseme_set(obj).visemes[0]
+        item.viseme = first
         st.mapping_index = len(st.mapping) - 1
         return {"FINISHED"}
 
@@ -289,8 +291,12 @@ class LIPSYNC_OT_mapping_remove(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        obj = context.scene.emotive_lipsync.target or context.active_object
-        if obj is None or obj.type != "MESH" or not len(obj.emotive_lipsync.mapping):
+        try:
+            obj = _mesh(context, "")
+            run.check_mesh(obj)
+        except Exception as exc:  # noqa: BLE001
+            return _fail(self, exc)
+        if not len(obj.emotive_lipsync.mapping):
             return {"CANCELLED"}
         st = obj.emotive_lipsync
         st.mapping.remove(st.mapping_index)

@@ -183,3 +183,18 @@ def test_a_studios_own_viseme_set_file_maps_by_its_own_names(empty_scene, tmp_pa
     mapping = obj.emotive_lipsync.mapping_dict()
     assert mapping["AI"] == {"wide_open": 1.0} and mapping["MBP"] == {"MBP": 1.0} and mapping["O"] == {"O": 1.0}
     assert import_module(MODULE + ".blender.run").mesh_viseme_set(obj).name == "studio_chart"
+
+
+def test_mapping_rows_are_added_and_removed_by_hand(empty_scene):
+    keys, _open = HEADS["vroid"]
+    obj = build_head("Face", keys)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.emotive_lipsync.mapping_add() == {"FINISHED"}
+    assert len(obj.emotive_lipsync.mapping) == 1
+    assert bpy.ops.emotive_lipsync.mapping_remove() == {"FINISHED"}
+    assert len(obj.emotive_lipsync.mapping) == 0
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+    empty_scene.collection.objects.link(lamp)
+    bpy.context.view_layer.objects.active = lamp
+    with pytest.raises(RuntimeError, match="not a mesh"):
+        bpy.ops.emotive_lipsync.mapping_add()
