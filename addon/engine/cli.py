@@ -38,6 +38,11 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--csv", metavar="OUT", help="write the frame table as CSV")
     a.add_argument("--quiet", action="store_true", help="print nothing but errors and warnings")
     sub.add_parser("list", help="list built-in viseme sets and emotion presets")
+    ar = sub.add_parser("arousal", help="estimate how calm (-1) or excited (+1) each recording sounds",
+                        description="Arousal from the audio alone: one line per file, PATH<TAB>AROUSAL.")
+    ar.add_argument("audio", nargs="+", help="audio files")
+    ar.add_argument("--json", action="store_true",
+                    help="print one JSON object per file instead: value, features and the track over time")
     _batch_parser(sub)
     le = sub.add_parser("learn", help="learn an emotion preset from example animation",
                         description="Learn a preset from clips: each AUDIO file with its face-capture CSV "
@@ -67,6 +72,10 @@ def main(argv: list[str] | None = None) -> int:
         return _learn(args)
     if args.command == "batch":
         return _batch(args)
+    if args.command == "arousal":
+        from .arousal_cli import run as run_arousal
+
+        return run_arousal(args.audio, args.json)
     from .align import AlignSettings
     from .pipeline import analyze
 
