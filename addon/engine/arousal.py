@@ -125,14 +125,17 @@ def frames(audio: Audio, tracks: prosody.Tracks | None = None, speech_db: float 
     cen = np.full(n, np.nan)
     if len(x) >= win and n:
         starts = np.clip((tracks.times * audio.rate).astype(int) - win // 2, 0, len(x) - win)
-        seg = x[starts[:, None] + np.arange(win)] * np.hanning(win)
-        spec = np.abs(np.fft.rfft(seg, axis=1)) ** 2
         fq = np.fft.rfftfreq(win, 1.0 / audio.rate)
         band = (fq >= 50) & (fq <= 5000)
-        p = spec[:, band]
-        tot = p.sum(axis=1)
-        ok = tot > 0
-        cen[ok] = np.log2((p[ok] * fq[band]).sum(axis=1) / tot[ok] / 1000.0)
+        hann = np.hanning(win)
+        for a in range(0, n, 4096):  # in blocks: long recordings stay small in memory
+            seg = x[starts[a:a + 4096, None] + np.arange(win)] * hann
+            p = (np.abs(np.fft.rfft(seg, axis=1)) ** 2)[:, band]
+            tot = p.sum(axis=1)
+            ok = tot > 0
+            c = np.full(len(p), np.nan)
+            c[ok] = np.log2((p[ok] * fq[band]).sum(axis=1) / tot[ok] / 1000.0)
+            cen[a:a + 4096] = c
     inten = np.asarray(tracks.intensity, dtype=float)
     speech = inten > (inten.max() - speech_db) if n else np.zeros(0, bool)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -140,21 +143,22 @@ def frames(audio: Audio, tracks: prosody.Tracks | None = None, speech_db: float 
     return Frames(tracks.times, st, inten, cen, speech & np.isfinite(cen))
 
 
-def features(fr: Frames, sel: np.ndarray | None = None) -> dict[str, float]:
-    """The features over the frames ``sel`` (a boolean mask; default all)."""
-    sel = np.ones(len(fr.times), bool) if sel is None else sel
-    sp = sel & fr.speech
+def features(fr: Frames, lo: int = 0, hi: int | None = None) -> dict[str, float]:
+    """The features over frames ``lo:hi`` (default: all)."""
+    sl = slice(lo, len(fr.times) if hi is None else hi)
+    sp = fr.speech[sl]
     out = {k: float("nan") for k in FEATURES}
     if sp.sum() < 3:
         return out
-    voiced = sp & np.isfinite(fr.pitch_st)
+    pitch = fr.pitch_st[sl]
+    voiced = sp & np.isfinite(pitch)
     if voiced.sum() >= 3:
-        out["pitch"] = float(np.median(fr.pitch_st[voiced]))
+        out["pitch"] = float(np.median(pitch[voiced]))
     out["voiced"] = float(voiced.sum() / sp.sum())
-    out["centroid"] = float(np.median(fr.centroid[sp]))
+    out["centroid"] = float(np.median(fr.centroid[sl][sp]))
     pair = sp[1:] & sp[:-1]
     if pair.sum() >= 2:
-        out["dynamics"] = float(np.mean(np.abs(np.diff(fr.intensity))[pair]))
+        out["dynamics"] = float(np.mean(np.abs(np.diff(fr.intensity[sl]))[pair]))
     return out
 
 
@@ -199,9 +203,10 @@ def estimate(audio: Audio, tracks: prosody.Tracks | None = None, alignment=None,
         return Estimate(value, feats)
     centres = np.arange(0.0, audio.duration + hop / 2, hop)
     raw = np.full(len(centres), np.nan)
-    for k, c in enumerate(centres):
-        sel = np.abs(fr.times - c) <= window / 2
-        f = features(fr, sel)
+    los = np.searchsorted(fr.times, centres - window / 2)
+    his = np.searchsorted(fr.times, centres + window / 2, side="right")
+    for k in range(len(centres)):
+        f = features(fr, int(los[k]), int(his[k]))
         if np.isfinite(f["centroid"]):
             f["rate"] = feats["rate"]
             raw[k] = score(f, model, fallback=feats)
@@ -246,3 +251,12 @@ def fit(rows: list[dict[str, float]], labels, names=("pitch", "centroid", "dynam
     return {"bias": float(w[0]),
             "features": {n: {"center": float(center[k]), "scale": float(scale[k]), "weight": float(w[k + 1])}
                          for k, n in enumerate(names)}}
+
+
+def range_factor(values, amount: float, model: dict | None = None) -> np.ndarray:
+    """What a preset with ``weights.follow_voice`` = ``amount`` multiplies the
+    viseme weight ranges by at arousal ``values``: 1 + amount * r * arousal,
+    with r the model file's ``follow_voice_range`` (0.35: x1.35 at full
+    arousal and amount 1, x0.65 at the calmest).  Amount 0 gives exactly 1."""
+    r = float((model or load_model()).get("follow_voice_range", 0.35))
+    return 1.0 + float(amount) * r * np.clip(np.asarray(values, dtype=float), -1.0, 1.0)

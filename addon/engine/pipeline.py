@@ -17,7 +17,8 @@ from typing import Callable
 import numpy as np
 
 from . import audio as audio_mod
-from . import coarticulation, presets, prosody, visemes, weights
+from . import arousal as arousal_mod
+from . import coarticulation, emotion_track, presets, prosody, visemes, weights
 from .align import AlignSettings, Alignment, align, check_transcript_matches
 from .audio import Audio
 from .errors import AlignmentError, AudioError, LipSyncError
@@ -102,6 +103,8 @@ class Result:
     closure: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per frame: lips closed (/p b m/), 0-1
     #: The notes a user must see (printed as warnings): words left out, a guessed encoding.
     warnings: list[str] = field(default_factory=list)
+    arousal: arousal_mod.Estimate | None = None   # how excited the voice sounds, -1 to 1
+    emotions: list[dict] = field(default_factory=list)  # the emotion over time (inline tags, markers)
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -126,6 +129,8 @@ class Result:
                        "weights": np.round(self.curves, 4).tolist(),
                        "closure": np.round(self.closure, 4).tolist()},
             "notes": self.notes,
+            "arousal": self.arousal.to_dict() if self.arousal is not None else None,
+            "emotions": self.emotions or [{"emotion": self.emotion, "time": 0.0, "fade": None}],
         }
 
     def write_json(self, path: str | os.PathLike) -> None:
@@ -179,10 +184,15 @@ def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: dict) -> np
 
 
 def phoneme_weights(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
-                    vset: visemes.VisemeSet, preset: dict) -> np.ndarray:
-    """Equations 1-2: each phoneme's viseme weight from its pitch and intensity."""
+                    vset: visemes.VisemeSet, preset: dict, arousal: np.ndarray | None = None) -> np.ndarray:
+    """Equations 1-2: each phoneme's viseme weight from its pitch and intensity.
+    ``arousal`` (per phoneme, -1 to 1) widens or narrows the ranges by the
+    preset's ``weights.follow_voice``."""
     phones = [p.phone for p in alignment.phones]
     ranges = phone_ranges(phones, vset, preset)
+    amount = preset["weights"].get("follow_voice", 0.0)
+    if arousal is not None and amount > 0 and len(phones):
+        ranges = np.clip(ranges * arousal_mod.range_factor(arousal, amount)[:, None], 0.0, 1.0)
     return weights.phoneme_weights(phones, pitch, intensity, stats, ranges, preset["weights"]["other_source"])
 
 
@@ -196,12 +206,12 @@ def rest_target(vset: visemes.VisemeSet, preset: dict) -> tuple[int | None, floa
 
 
 def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
-           vset: visemes.VisemeSet, preset: dict, model: str, fps: float
+           vset: visemes.VisemeSet, preset: dict, model: str, fps: float, arousal: np.ndarray | None = None
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weights per phoneme, frame times and viseme curves."""
     if model not in MODELS:
         raise LipSyncError(f"unknown coarticulation model {model!r}: use {' or '.join(MODELS)}")
-    w = phoneme_weights(alignment, pitch, intensity, stats, vset, preset)
+    w = phoneme_weights(alignment, pitch, intensity, stats, vset, preset, arousal)
     times = frame_times(alignment.duration, fps)
     spans = [(p.phone, p.start, p.end) for p in alignment.phones]
     split = preset["rules"]["diphthong_split"]
@@ -261,13 +271,21 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             viseme_set: str | None = None, emotion: str | dict = "neutral",
             coarticulation_model: str = "dominance", fps=30, dictionary: str | None = None,
             settings: AlignSettings | None = None,
-            progress: Callable[[str, float], None] | None = None) -> Result:
+            progress: Callable[[str, float], None] | None = None,
+            emotion_changes: list | None = None, emotion_fade: float = emotion_track.DEFAULT_FADE,
+            emotion_lookup: Callable[[str], dict] | None = None) -> Result:
     """Audio + transcript (or an imported alignment) -> viseme curves.
 
     ``emotion`` is a built-in preset name, a preset file path or a preset
     dict; ``viseme_set`` a built-in set name or a file path (default:
     ``default``, or the set a learned preset was trained with).  ``progress``
     is called with (step, fraction done).
+
+    Inline tags in ``text`` (``[angry]``) and ``emotion_changes`` ((time s,
+    preset name or dict) pairs, e.g. from timeline markers) change the
+    emotion inside the line, fading over ``emotion_fade`` s; see
+    :mod:`.emotion_track`.  ``emotion_lookup`` resolves a tag's name
+    (default: :func:`presets.load`).
     """
     def report(step, frac):
         if progress:
@@ -278,6 +296,12 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     vset = viseme_set_for(preset, viseme_set)
     if coarticulation_model not in MODELS:
         raise LipSyncError(f"unknown coarticulation model {coarticulation_model!r}: use {' or '.join(MODELS)}")
+    lookup = emotion_lookup or presets.load
+    tags = []
+    if text is not None:
+        text, tags = emotion_track.split_tags(text, known=lambda n: bool(lookup(n)))
+    if emotion_fade < 0 or not np.isfinite(emotion_fade):
+        raise LipSyncError(f"the emotion fade must be 0 s or more, got {emotion_fade!r}")
     report("decode", 0.0)
     snd = audio if isinstance(audio, Audio) else audio_mod.load(audio)
     if alignment is None:
@@ -298,19 +322,24 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     al.duration = max(snd.duration, al.duration if alignment is not None else 0.0)
     report("prosody", 0.8)
     tracks = prosody.analyse(snd)
-    wp = preset["weights"]
-    pr = tuple(wp["pitch_range"]) if isinstance(wp["pitch_range"], list) else wp["pitch_range"]
-    stats = prosody.clip_stats(tracks, wp["intensity_floor_db"], pr)
-    pitch, inten = prosody.phoneme_means(tracks, [(p.start, p.end) for p in al.phones], stats)
+    voice = arousal_mod.estimate(snd, tracks, al) if snd.duration >= MIN_SPEECH else None
+    changes = [emotion_track.Change(t, lookup(name), name)
+               for t, name in emotion_track.tag_times(tags, [w.start for w in al.words], al.duration)]
+    for t, p in emotion_changes or []:
+        p = presets.resolve(dict(p), "preset") if isinstance(p, dict) else lookup(p)
+        changes.append(emotion_track.Change(float(t), p, p.get("name", "")))
     report("curves", 0.9)
-    w, times, out = curves(al, pitch, inten, stats, vset, preset, coarticulation_model, fps)
+    pitch, inten, w, times, out, stats = emotion_track.render(al, tracks, preset, changes, vset,
+                                                               coarticulation_model, fps, voice, emotion_fade,
+                                                               viseme_set)
     report("done", 1.0)
     notes = list(snd.notes) + list(al.notes)
     if not stats.voiced:
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
     closure = coarticulation.closure_track(times, [(p.phone, p.start, p.end) for p in al.phones])
     return Result(al.duration, fps, vset, preset.get("name", str(emotion)), coarticulation_model, al,
-                  pitch, inten, w, times, out, notes, closure, list(snd.notes) + list(al.warnings))
+                  pitch, inten, w, times, out, notes, closure, list(snd.notes) + list(al.warnings), voice,
+                  emotion_track.timeline(preset.get("name", str(emotion)), changes, emotion_fade))
 
 
 __all__ = ["analyze", "align_audio", "align_file", "curves", "parse_fps", "Result", "CLASSES"]

@@ -17,6 +17,12 @@ Fields (see ``data/presets/neutral.json`` for values):
     "pitch", "both" or "neutral" (the paper leaves it open).
 ``weights.pitch_range``  "auto" (from the clip), "male", "female" or [lo, hi] Hz.
 ``weights.intensity_floor_db``  frames this far below the loudest are silence.
+``weights.follow_voice``  0 to 1: how much the voice's arousal (estimated from
+    the audio, -1 calm to +1 excited, see ``arousal.py``) widens or narrows
+    every viseme's weight range, on one scale across lines: at 1 a fully
+    excited line's ranges are x1.35 and a fully calm one's x0.65 (the factor
+    is ``follow_voice_range`` in ``data/arousal.json``).  0 (the built-in
+    presets' value) leaves the weights as equations 1-2 give them.
 ``rules.t_onset``, ``rules.t_offset``  seconds a viseme starts before its
     phoneme and lingers after it, before the influence factor.
 ``rules.apex``  where in the phoneme the viseme peaks, 0 (start) to 1 (end).
@@ -81,7 +87,7 @@ def validate(p: dict, source: str = "preset") -> dict:
     if "learned" in p:
         _validate_learned(p["learned"], source)
     w = section(p, "weights", "weights")
-    no_extra(w, ("range_scale", "other_source", "pitch_range", "intensity_floor_db"), "weights")
+    no_extra(w, ("range_scale", "other_source", "pitch_range", "intensity_floor_db", "follow_voice"), "weights")
     rs = section(w, "range_scale", "weights.range_scale")
     no_extra(rs, CLASSES, "weights.range_scale")
     for cls in CLASSES:
@@ -105,6 +111,7 @@ def validate(p: dict, source: str = "preset") -> dict:
     elif pr not in ("auto", "male", "female"):
         raise PresetError(source, "weights.pitch_range", f"must be auto, male, female or [low, high], got {pr!r}")
     w["intensity_floor_db"] = _num(source, "weights.intensity_floor_db", w.get("intensity_floor_db"), 10, 120)
+    w["follow_voice"] = _num(source, "weights.follow_voice", w.get("follow_voice", 0.0), 0.0, 1.0)
 
     r = section(p, "rules", "rules")
     no_extra(r, ("t_onset", "t_offset", "apex", "influence", "deletion", "diphthong_split"), "rules")

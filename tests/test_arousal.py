@@ -1,0 +1,119 @@
+"""Arousal from the voice, and weights that follow it across lines."""
+
+import json
+import wave
+
+import numpy as np
+import pytest
+
+from addon.engine import arousal, cli, presets
+from addon.engine.pipeline import analyze
+from voice_synth import voice
+
+
+@pytest.fixture(scope="module")
+def lines():
+    return {"loud": voice(1.0), "quiet": voice(0.0)}
+
+
+def write_wav(path, snd):
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(snd.rate)
+        w.writeframes((np.clip(snd.samples, -1, 1) * 32767).astype("<i2").tobytes())
+
+
+def test_estimate_in_range_with_a_track_and_ranks_effort(lines):
+    loud = arousal.estimate(lines["loud"][0])
+    quiet = arousal.estimate(lines["quiet"][0])
+    for est, snd in ((loud, lines["loud"][0]), (quiet, lines["quiet"][0])):
+        assert -1 <= est.value <= 1
+        assert len(est.times) == len(est.track) > 10
+        assert est.times[-1] == pytest.approx(snd.duration, abs=0.1)
+        assert np.isfinite(est.track).all() and (np.abs(est.track) <= 1).all()
+        assert np.abs(np.diff(est.track)).max() < 0.2   # smooth
+    assert loud.value > quiet.value + 0.3
+    assert loud.at([1.0])[0] > quiet.at([1.0])[0]
+
+
+def test_estimate_does_not_depend_on_the_recording_level(lines):
+    snd = lines["loud"][0]
+    quieter = type(snd)(snd.samples * 0.1, snd.rate)
+    assert arousal.estimate(quieter).value == pytest.approx(arousal.estimate(snd).value, abs=0.01)
+
+
+def test_model_file_checked(tmp_path):
+    bad = tmp_path / "m.json"
+    bad.write_text(json.dumps({"bias": 0, "features": {"loudness": {"center": 0, "scale": 1, "weight": 1}}}))
+    with pytest.raises(Exception, match="unknown feature 'loudness'"):
+        arousal.load_model(bad)
+    model = arousal.load_model()
+    assert set(model["features"]) <= set(arousal.FEATURES) and model["features"]
+
+
+def test_arousal_command(tmp_path, capsys, lines):
+    a, b = tmp_path / "loud.wav", tmp_path / "quiet.wav"
+    write_wav(a, lines["loud"][0])
+    write_wav(b, lines["quiet"][0])
+    bad = tmp_path / "notes.wav"
+    bad.write_text("not audio")
+    rc = cli.main(["arousal", str(a), str(bad), str(b)])
+    out, err = capsys.readouterr()
+    assert rc == 1
+    rows = [line.split("\t") for line in out.splitlines()]
+    assert [r[0] for r in rows] == [str(a), str(b)]
+    assert all(len(r[1].split(".")[1]) == 3 for r in rows)
+    assert float(rows[0][1]) > float(rows[1][1])
+    assert len(err.strip().splitlines()) == 1 and str(bad) in err and "Traceback" not in err
+    assert cli.main(["arousal", "--json", str(a)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["path"] == str(a) and -1 <= doc["value"] <= 1
+    assert len(doc["track"]["time"]) == len(doc["track"]["value"]) > 5
+
+
+def follow(amount):
+    p = presets.load("neutral")
+    p["weights"]["follow_voice"] = amount
+    return p
+
+
+def vowel_weights(result):
+    return np.array([w for p, w in zip(result.alignment.phones, result.weights) if p.phone not in ("M", "S")])
+
+
+def test_follow_voice_zero_is_todays_weights(lines):
+    for snd, al in lines.values():
+        today = analyze(snd, alignment=al, emotion="neutral")
+        zero = analyze(snd, alignment=al, emotion=follow(0.0))
+        assert np.array_equal(today.weights, zero.weights)
+        assert np.array_equal(today.curves, zero.curves)
+
+
+def test_follow_voice_opens_a_loud_line_wider_than_a_quiet_one(lines):
+    r = {(name, amount): analyze(snd, alignment=al, emotion=follow(amount))
+         for name, (snd, al) in lines.items() for amount in (0.0, 1.0)}
+    # Equations 1-2 alone weigh each line against itself: the two lines get similar weights.
+    assert vowel_weights(r["loud", 0.0]).mean() == pytest.approx(vowel_weights(r["quiet", 0.0]).mean(), abs=0.1)
+    assert (vowel_weights(r["loud", 1.0]) > vowel_weights(r["loud", 0.0])).all()
+    assert (vowel_weights(r["quiet", 1.0]) <= vowel_weights(r["quiet", 0.0])).all()
+    assert vowel_weights(r["loud", 1.0]).mean() > vowel_weights(r["quiet", 1.0]).mean() + 0.1
+    assert r["loud", 1.0].curves.max() > r["quiet", 1.0].curves.max()
+
+
+def test_analyze_json_has_the_arousal_and_its_track(lines):
+    snd, al = lines["loud"]
+    doc = analyze(snd, alignment=al).to_dict()
+    assert doc["schema"] == 1 and "phonemes" in doc and "frames" in doc   # existing fields kept
+    a = doc["arousal"]
+    assert -1 <= a["value"] <= 1 and a["features"]["rate"] > 0
+    assert len(a["track"]["time"]) == len(a["track"]["value"]) > 5
+    assert doc["emotions"] == [{"emotion": "neutral", "time": 0.0, "fade": None}]
+
+
+def test_follow_voice_is_a_checked_preset_field():
+    p = presets.load("neutral")
+    assert p["weights"]["follow_voice"] == 0.0
+    p["weights"]["follow_voice"] = 2
+    with pytest.raises(presets.PresetError, match="follow_voice"):
+        presets.validate(p)
