@@ -25,6 +25,7 @@ they move from one to the other without a jump.
 from __future__ import annotations
 
 import difflib
+import json
 import re
 from dataclasses import dataclass
 from typing import Callable
@@ -143,6 +144,7 @@ def mix(times: np.ndarray, change_times: list[float], n_presets: int, index: lis
     for t, k in sorted(zip(change_times, index), key=lambda c: c[0]):
         if fade > 0 and t > 0:
             alpha = np.clip((times - (t - fade)) / fade, 0.0, 1.0)
+            alpha[times >= t] = 1.0   # exactly the new preset from the change on
         else:
             alpha = (times >= t).astype(float)
         one = np.zeros(n_presets)
@@ -176,13 +178,14 @@ def render(al, tracks, base: dict, changes: list[Change], vset, model: str, fps:
     if starting:
         base = starting[-1].preset
     later = sorted((c for c in changes if c.time > 0), key=lambda c: c.time)
-    plist, labels = [base], [base.get("name", "")]
+    plist, keys = [base], [json.dumps(base, sort_keys=True)]
     index = []
     for c in later:
-        if c.label not in labels:
+        key = json.dumps(c.preset, sort_keys=True)
+        if key not in keys:
             plist.append(c.preset)
-            labels.append(c.label)
-        index.append(labels.index(c.label))
+            keys.append(key)
+        index.append(keys.index(key))
     centres = np.array([(p.start + p.end) / 2 for p in al.phones])
     spans = [(p.start, p.end) for p in al.phones]
     results = []

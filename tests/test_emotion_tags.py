@@ -1,0 +1,142 @@
+"""Emotion changing inside a line: inline tags, change times, the cross-fade."""
+
+import json
+
+import numpy as np
+import pytest
+
+from addon.engine import cli, emotion_track, pipeline, presets
+from addon.engine.align import AlignedPhone, AlignedWord, Alignment
+from addon.engine.errors import TranscriptError
+from addon.engine.text import normalize
+from voice_synth import voice
+
+
+def test_tags_are_taken_out_and_placed_before_their_word():
+    clean, tags = emotion_track.split_tags("I'm fine. [angry] Get out! [Neutral] Sorry [sighs].")
+    assert "[" not in clean.replace("[sighs]", "")
+    assert [w.text for w in normalize(clean)] == ["i'm", "fine", "get", "out", "sorry"]
+    assert [(t.preset, t.word_index) for t in tags] == [("angry", 2), ("neutral", 4)]
+
+
+def test_explicit_tags_and_preset_files(tmp_path):
+    f = tmp_path / "grumpy.json"
+    f.write_text(json.dumps({"name": "grumpy", "base": "sad", "gain": 0.9}))
+    clean, tags = emotion_track.split_tags(f"[emotion: happy] Hi there [{f}] bye")
+    assert [(t.preset, t.word_index) for t in tags] == [("happy", 0), (str(f), 2)]
+    assert [w.text for w in normalize(clean)] == ["hi", "there", "bye"]
+
+
+@pytest.mark.parametrize("text, bad", [("Fine.\nGet [angyr] out", "[angyr]"),
+                                       ("Go [emotion:furious] now", "[emotion:furious]"),
+                                       ("Go [missing.json] now", "[missing.json]")])
+def test_unknown_tag_is_an_error_naming_it(text, bad):
+    with pytest.raises(TranscriptError) as exc:
+        emotion_track.split_tags(text)
+    msg = str(exc.value)
+    assert bad in msg and "line" in msg and "column" in msg and "\n" not in msg
+    if "angyr" in bad:
+        assert "line 2, column 5" in msg and "[angry]" in msg
+
+
+def test_stage_directions_stay_stage_directions():
+    clean, tags = emotion_track.split_tags("[sighs] Well [long pause] fine [sadly].")
+    assert tags == []
+    assert [w.text for w in normalize(clean)] == ["well", "fine"]
+
+
+def test_mix_is_a_linear_cross_fade_ending_at_the_change():
+    t = np.arange(0, 2, 0.01)
+    m = emotion_track.mix(t, [1.0], 2, [1], fade=0.3)
+    assert np.allclose(m.sum(axis=1), 1)
+    assert (m[t <= 0.7, 1] == 0).all() and (m[t >= 1.0, 1] == 1).all()
+    assert m[np.searchsorted(t, 0.85), 1] == pytest.approx(0.5, abs=0.04)
+    step = emotion_track.mix(t, [1.0], 2, [1], fade=0.0)
+    assert (step[t < 1.0, 1] == 0).all() and (step[t >= 1.0, 1] == 1).all()
+
+
+@pytest.fixture(scope="module")
+def line():
+    return voice(0.5, syllables=("AA", "IY", "UW", "EH", "AA", "IY", "UW", "EH"))
+
+
+def test_weights_follow_each_preset_on_each_side_without_a_jump(line):
+    snd, al = line
+    change = al.words[4].start
+    neutral = pipeline.analyze(snd, alignment=al, emotion="neutral")
+    angry = pipeline.analyze(snd, alignment=al, emotion="angry")
+    mixed = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(change, "angry")])
+    t = mixed.times
+    before, after = t < change - 0.3, t >= change
+    assert np.array_equal(mixed.curves[before], neutral.curves[before])
+    assert np.array_equal(mixed.curves[after], angry.curves[after])
+    assert not np.allclose(neutral.curves[after], angry.curves[after])   # the presets do differ there
+    centres = np.array([(p.start + p.end) / 2 for p in al.phones])
+    assert np.allclose(mixed.weights[centres >= change], angry.weights[centres >= change])
+    assert np.allclose(mixed.weights[centres < change - 0.3], neutral.weights[centres < change - 0.3])
+    # No jump: across the fade, each curve moves per frame no more than the
+    # presets' own curves do, plus the gap between them times the fade's step.
+    own = np.maximum(np.abs(np.diff(neutral.curves, axis=0)), np.abs(np.diff(angry.curves, axis=0)))
+    step = 1.0 / (0.3 * mixed.fps)
+    gap = np.abs(neutral.curves - angry.curves)
+    assert (np.abs(np.diff(mixed.curves, axis=0)) <= own + step * np.maximum(gap[1:], gap[:-1]) + 1e-9).all()
+    # A preset far from neutral: a hard cut jumps, the cross-fade does not.
+    small = {"name": "small", "gain": 0.4}
+    low = pipeline.analyze(snd, alignment=al, emotion=small)
+    own = np.maximum(np.abs(np.diff(neutral.curves, axis=0)), np.abs(np.diff(low.curves, axis=0)))
+    gap = np.abs(neutral.curves - low.curves)
+    vowel = al.phones[13]                  # word 4's vowel: a change (a marker) mid-vowel
+    mid = (vowel.start + vowel.end) / 2
+    k = np.searchsorted(t, mid)
+    cut = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(mid, small)], emotion_fade=0.0)
+    assert (np.abs(cut.curves[k] - cut.curves[k - 1]) > own[k - 1] + 0.1).any()
+    faded = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(mid, small)])
+    assert (np.abs(np.diff(faded.curves, axis=0)) <= own + step * np.maximum(gap[1:], gap[:-1]) + 1e-9).all()
+    doc = mixed.to_dict()
+    assert doc["emotions"] == [{"emotion": "neutral", "time": 0.0, "fade": None},
+                               {"emotion": "angry", "time": round(change, 4),
+                                "fade": [round(change - 0.3, 4), round(change, 4)]}]
+
+
+def test_inline_tags_in_analyze_never_reach_the_aligner(monkeypatch, line):
+    snd, al = line
+    seen = {}
+
+    def fake_align(_snd, text, *a, **kw):
+        seen["text"] = text
+        words = [w.text for w in normalize(text)]
+        assert len(words) == len(al.words)
+        return Alignment([AlignedWord(x, w.start, w.end, w.phones) for x, w in zip(words, al.words)],
+                         list(al.phones), al.duration)
+
+    monkeypatch.setattr(pipeline, "align_audio", fake_align)
+    r = pipeline.analyze(snd, "one two three four [sad] five six seven [neutral] eight", emotion="neutral")
+    assert "[" not in seen["text"] and "sad" not in seen["text"]
+    assert [(e["emotion"], e["time"]) for e in r.emotions] == [
+        ("neutral", 0.0), ("sad", round(al.words[4].start, 4)), ("neutral", round(al.words[7].start, 4))]
+    sad = pipeline.analyze(snd, alignment=al, emotion="sad")
+    neutral = pipeline.analyze(snd, alignment=al, emotion="neutral")
+    mid = (r.times >= al.words[4].start) & (r.times < al.words[7].start - 0.3)
+    assert np.array_equal(r.curves[mid], sad.curves[mid])
+    end = r.times >= al.words[7].start
+    assert np.array_equal(r.curves[end], neutral.curves[end])
+    # A tag before the first word sets the line's emotion from the start.
+    r = pipeline.analyze(snd, "[sad] one two three four five six seven eight", emotion="neutral")
+    assert np.array_equal(r.curves, sad.curves)
+    assert r.emotions == [{"emotion": "sad", "time": 0.0, "fade": None}]
+
+
+def test_cli_unknown_tag_is_a_one_line_error(tmp_path, capsys, fixtures):
+    rc = cli.main(["analyze", str(fixtures / "bob_map.wav"), "--text", "Bob [angyr] ran",
+                   "--json", str(tmp_path / "o.json")])
+    err = capsys.readouterr().err
+    assert rc == 1 and "[angyr]" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_presets_with_different_viseme_sets_cannot_share_a_line(line, tmp_path):
+    snd, al = line
+    p = presets.load("neutral")
+    p["learned"] = {"viseme_set": "arkit", "targets": {"aa": {"jawOpen": 1.0}}}
+    with pytest.raises(Exception, match="viseme set"):
+        pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.5, p)])
