@@ -167,7 +167,7 @@ def execute(argv: list[str]) -> int:
         tol = args.tolerance if args.tolerance is not None else (st.tolerance if st.reduce_keys else 0.0)
         options = run.Options(preset, args.coarticulation or st.coarticulation, tol,
                               args.dictionary or (bpy.path.abspath(st.dictionary) if st.dictionary else None),
-                              whole_character=st.whole_character)
+                              whole_character=st.whole_character, emotion_fade=st.emotion_fade)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)

@@ -36,7 +36,7 @@ def _options(context, emotion: str, coarticulation: str, tolerance: float) -> ru
     tol = tolerance if tolerance >= 0 else (st.tolerance if st.reduce_keys else 0.0)
     dictionary = bpy.path.abspath(st.dictionary) if st.dictionary else None
     return run.Options(preset, coarticulation or st.coarticulation, tol, dictionary,
-                       whole_character=st.whole_character)
+                       whole_character=st.whole_character, emotion_fade=st.emotion_fade)
 
 
 def _preset_source(name: str) -> str:

@@ -13,6 +13,7 @@ from ..engine.errors import LipSyncError
 from . import compat, keying, run, sources
 from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
                         LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_load_transcript)
+from .emotion_markers import STRIP_AROUSAL
 from .preset_ui import LIPSYNC_MT_emotion_presets, LIPSYNC_OT_preset_add
 
 
@@ -144,6 +145,11 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
             ed = context.scene.sequence_editor
             if ed is not None:
                 col.prop_search(st, "strip", ed, compat.ALL_STRIPS_PROPERTY, text="Strip")
+                strip = next((s for s in compat.sound_strips(context.scene) if s.name == st.strip), None) \
+                    if st.strip else sources.active_sound_strip(context.scene)
+                if strip is not None and STRIP_AROUSAL in strip:
+                    col.label(text=f"Voice arousal: {strip[STRIP_AROUSAL]:+.2f} (calm -1, excited +1)",
+                              icon="SOUND")
             else:
                 col.label(text="The sequencer is empty", icon="INFO")
         else:
@@ -227,6 +233,7 @@ class LIPSYNC_PT_emotion(_Panel, bpy.types.Panel):
         row.operator(LIPSYNC_OT_preset_add.bl_idname, text="", icon="REMOVE").remove_active = True
         layout.use_property_split = True
         layout.prop(st, "coarticulation")
+        layout.prop(st, "emotion_fade")
         col = layout.column(heading="Keys")
         col.prop(st, "whole_character")
         col.prop(st, "reduce_keys")

@@ -16,7 +16,7 @@ from ..engine import conventions, pipeline, visemes
 from ..engine import mapping as mapping_mod
 from ..engine.align import AlignSettings
 from ..engine.errors import LipSyncError
-from . import keying
+from . import compat, emotion_markers, keying
 from .sources import Clip, scene_fps
 
 
@@ -30,6 +30,7 @@ class Options:
     dictionary: str | None = None
     workers: int = 0
     whole_character: bool = True         # also key the character's other meshes with those shape keys
+    emotion_fade: float = 0.3            # s over which an emotion change (tag, marker) cross-fades
 
 
 @dataclass
@@ -237,6 +238,8 @@ class Plan:
     closure: conventions.Closure
     started: float = field(default_factory=time.perf_counter)
     also: list[str] = field(default_factory=list)   # companion meshes to key too
+    emotions: list = field(default_factory=list)     # (s, preset) from emotion: timeline markers
+    find_preset: object = None                       # resolves inline emotion tags
 
 
 @dataclass
@@ -267,7 +270,10 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
     driven = {k for mix in mp.values() for k in mix} | set(closure.relative)
     also = [o.name for o in companions(obj, driven)] if options.whole_character else []
-    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also)
+    find = emotion_markers.lookup()
+    marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
+    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
+                emotions=marks, find_preset=find)
 
 
 def analyze(plan: Plan, progress=None) -> Analysis:
@@ -278,7 +284,9 @@ def analyze(plan: Plan, progress=None) -> Analysis:
     result = pipeline.analyze(plan.clip.audio, plan.text, viseme_set=plan.viseme_set,
                               emotion=o.emotion, coarticulation_model=o.coarticulation,
                               fps=plan.fps, dictionary=o.dictionary,
-                              settings=AlignSettings(workers=o.workers), progress=progress)
+                              settings=AlignSettings(workers=o.workers), progress=progress,
+                              emotion_changes=plan.emotions, emotion_fade=o.emotion_fade,
+                              emotion_lookup=plan.find_preset)
     return Analysis(result, time.perf_counter() - t0)
 
 
@@ -303,6 +311,11 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
             keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
                          plan.options.tolerance, clip.label)
             also.append(name)
+    scene = bpy.data.scenes.get(plan.scene)
+    if clip.strip and scene is not None and result.arousal is not None:
+        strip = next((s for s in compat.sound_strips(scene) if s.name == clip.strip), None)
+        if strip is not None:
+            strip[emotion_markers.STRIP_AROUSAL] = round(float(result.arousal.value), 3)
     t1 = time.perf_counter()
     words = result.alignment.words
     return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],

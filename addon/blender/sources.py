@@ -36,6 +36,7 @@ class Clip:
     first_frame: int
     label: str
     audio_path: str | None  # for finding a transcript beside it
+    strip: str = ""         # the sound strip's name ("" for an audio file)
 
 
 def scene_fps(scene) -> float:
@@ -106,7 +107,7 @@ def strip_clip(scene, strip) -> Clip:
     if b - a < int(0.05 * snd.rate):
         raise AudioError(f"sound strip {strip.name!r} shows less than 50 ms of its sound")
     path = None if strip.sound.packed_file is not None else sound_path(strip.sound)
-    return Clip(Audio(snd.samples[a:b], snd.rate), int(first), strip.name, path)
+    return Clip(Audio(snd.samples[a:b], snd.rate), int(first), strip.name, path, strip.name)
 
 
 def file_clip(path: str, first_frame: int) -> Clip:
