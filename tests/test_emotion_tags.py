@@ -132,6 +132,10 @@ def test_cli_unknown_tag_is_a_one_line_error(tmp_path, capsys, fixtures):
     err = capsys.readouterr().err
     assert rc == 1 and "[angyr]" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o.json").exists()
+    rc = cli.main(["analyze", str(fixtures / "bob_map.wav"), "--text", "Bob", "--emotion-fade", "-1",
+                   "--json", str(tmp_path / "o.json")])
+    err = capsys.readouterr().err
+    assert rc == 1 and "fade" in err and len(err.strip().splitlines()) == 1
 
 
 def test_presets_with_different_viseme_sets_cannot_share_a_line(line, tmp_path):
@@ -140,3 +144,18 @@ def test_presets_with_different_viseme_sets_cannot_share_a_line(line, tmp_path):
     p["learned"] = {"viseme_set": "arkit", "targets": {"aa": {"jawOpen": 1.0}}}
     with pytest.raises(Exception, match="viseme set"):
         pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.5, p)])
+
+
+def test_batch_honours_inline_tags(tmp_path, fixtures):
+    import shutil
+
+    from addon.engine import batch
+
+    shutil.copy(fixtures / "bob_map.wav", tmp_path / "bob_map.wav")
+    (tmp_path / "m.csv").write_text('audio,text\nbob_map.wav,"Bob bought [sad] a map."\n')
+    rep = batch.run(tmp_path / "m.csv", workers=1, progress=False)
+    assert rep.count("ok") == 1
+    doc = json.loads((tmp_path / "bob_map.json").read_text())
+    assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
+    assert [e["emotion"] for e in doc["emotions"]] == ["neutral", "sad"]
+    assert doc["emotions"][1]["time"] == doc["words"][2]["start"]

@@ -31,6 +31,8 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--emotion", default="neutral",
                    help=f"built-in preset ({', '.join(presets.builtin_names())}) or a .json file (default: neutral)")
     a.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
+    a.add_argument("--emotion-fade", type=float, default=0.3, metavar="SECONDS",
+                   help="cross-fade of an inline emotion tag such as [angry] (default: 0.3)")
     a.add_argument("--fps", default="30", help="frames per second: 24, 25, 30, 60, 23.976, 29.97, 24000/1001 ...")
     a.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
     a.add_argument("--workers", type=int, default=0, help="alignment processes (0: one per core)")
@@ -106,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         result = analyze(args.audio, text, alignment=args.alignment, viseme_set=args.viseme_set,
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
-                         dictionary=args.dictionary, settings=AlignSettings(workers=args.workers))
+                         dictionary=args.dictionary, settings=AlignSettings(workers=args.workers),
+                         emotion_fade=args.emotion_fade)
         result.notes[:0] = warnings
         for w in result.warnings:
             print(f"warning: {w}", file=sys.stderr)
