@@ -202,14 +202,7 @@ def estimate(audio: Audio, tracks: prosody.Tracks | None = None, alignment=None,
     if len(fr.times) == 0:
         return Estimate(value, feats)
     centres = np.arange(0.0, audio.duration + hop / 2, hop)
-    raw = np.full(len(centres), np.nan)
-    los = np.searchsorted(fr.times, centres - window / 2)
-    his = np.searchsorted(fr.times, centres + window / 2, side="right")
-    for k in range(len(centres)):
-        f = features(fr, int(los[k]), int(his[k]))
-        if np.isfinite(f["centroid"]):
-            f["rate"] = feats["rate"]
-            raw[k] = score(f, model, fallback=feats)
+    raw = _window_scores(fr, centres, window, model, feats)
     ok = np.isfinite(raw)
     raw = np.interp(centres, centres[ok], raw[ok]) if ok.any() else np.full(len(centres), value)
     if smooth > 0 and len(raw) > 1:
@@ -219,6 +212,49 @@ def estimate(audio: Audio, tracks: prosody.Tracks | None = None, alignment=None,
         padded = np.pad(raw, r, mode="edge")
         raw = np.convolve(padded, kern / kern.sum(), mode="valid")
     return Estimate(value, feats, centres, np.clip(raw, -1.0, 1.0))
+
+
+def _window_scores(fr: Frames, centres: np.ndarray, window: float, model: dict, clip: dict) -> np.ndarray:
+    """The model on the features of a ``window``-second window around each
+    centre (all windows at once; NaN where a window holds under 3 speech
+    frames).  A feature a window lacks takes the clip's value."""
+    import warnings
+
+    n, h = len(fr.times), max(1, int(round(window / 2 / STEP)))
+    idx = np.clip(np.searchsorted(fr.times, centres), 0, n - 1)
+    sp = fr.speech
+    voiced = sp & np.isfinite(fr.pitch_st)
+    pair = np.zeros(n, bool)
+    pair[:-1] = sp[1:] & sp[:-1]
+    d_int = np.zeros(n)
+    d_int[:-1] = np.abs(np.diff(fr.intensity))
+
+    def rows(x, fill):
+        padded = np.concatenate([np.full(h, fill, dtype=x.dtype), x, np.full(h, fill, dtype=x.dtype)])
+        return np.lib.stride_tricks.sliding_window_view(padded, 2 * h + 1)[idx]
+
+    def count(mask):
+        c = np.concatenate([[0], np.cumsum(mask)])
+        lo, hi = np.clip(idx - h, 0, n), np.clip(idx + h + 1, 0, n)
+        return c[hi] - c[lo]
+
+    n_sp, n_v, n_pair = count(sp), count(voiced), count(pair)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN windows: handled below
+        f = {"pitch": np.nanmedian(rows(np.where(voiced, fr.pitch_st, np.nan), np.nan), axis=1),
+             "centroid": np.nanmedian(rows(np.where(sp, fr.centroid, np.nan), np.nan), axis=1),
+             "voiced": n_v / np.maximum(n_sp, 1),
+             "dynamics": np.where(n_pair >= 2, count(np.where(pair, d_int, 0.0)) / np.maximum(n_pair, 1), np.nan)}
+    f["pitch"][n_v < 3] = np.nan
+    z = np.full(len(centres), float(model["bias"]))
+    for name, c in model["features"].items():
+        x = f.get(name, np.full(len(centres), np.nan)).astype(float)
+        fallback = clip.get(name, float("nan"))
+        x = np.where(np.isfinite(x), x, fallback if fallback is not None and np.isfinite(fallback) else c["center"])
+        z += float(c["weight"]) * (x - float(c["center"])) / float(c["scale"])
+    out = np.tanh(z)
+    out[n_sp < 3] = np.nan
+    return out
 
 
 def estimate_file(path: str | os.PathLike, model: dict | None = None) -> Estimate:
