@@ -144,6 +144,8 @@ def test_presets_with_different_viseme_sets_cannot_share_a_line(line, tmp_path):
     p["learned"] = {"viseme_set": "arkit", "targets": {"aa": {"jawOpen": 1.0}}}
     with pytest.raises(Exception, match="viseme set"):
         pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.5, p)])
+    with pytest.raises(Exception, match="viseme set"):   # also when it takes over from the start
+        pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.0, p)])
 
 
 def test_batch_honours_inline_tags(tmp_path, fixtures):

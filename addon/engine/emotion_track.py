@@ -190,7 +190,7 @@ def render(al, tracks, base: dict, changes: list[Change], vset, model: str, fps:
     spans = [(p.start, p.end) for p in al.phones]
     results = []
     for p in plist:
-        if len(plist) > 1 and viseme_set_for(p, viseme_set).name != vset.name:
+        if changes and viseme_set_for(p, viseme_set).name != vset.name:
             raise LipSyncError(f"preset {p.get('name', '')!r} uses the {viseme_set_for(p, viseme_set).name!r} "
                                f"viseme set, the line's others {vset.name!r}: they cannot be mixed in one line")
         wp = p["weights"]
