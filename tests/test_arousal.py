@@ -58,14 +58,17 @@ def test_arousal_command(tmp_path, capsys, lines):
     write_wav(b, lines["quiet"][0])
     bad = tmp_path / "notes.wav"
     bad.write_text("not audio")
-    rc = cli.main(["arousal", str(a), str(bad), str(b)])
+    silent = tmp_path / "silent.wav"
+    write_wav(silent, type(lines["loud"][0])(np.zeros(16000, np.float32), 16000))
+    rc = cli.main(["arousal", str(a), str(bad), str(silent), str(b)])
     out, err = capsys.readouterr()
     assert rc == 1
     rows = [line.split("\t") for line in out.splitlines()]
     assert [r[0] for r in rows] == [str(a), str(b)]
     assert all(len(r[1].split(".")[1]) == 3 for r in rows)
     assert float(rows[0][1]) > float(rows[1][1])
-    assert len(err.strip().splitlines()) == 1 and str(bad) in err and "Traceback" not in err
+    errs = err.strip().splitlines()
+    assert len(errs) == 2 and str(bad) in errs[0] and "no speech" in errs[1] and "Traceback" not in err
     assert cli.main(["arousal", "--json", str(a)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["path"] == str(a) and -1 <= doc["value"] <= 1

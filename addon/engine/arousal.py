@@ -198,8 +198,9 @@ def estimate(audio: Audio, tracks: prosody.Tracks | None = None, alignment=None,
     feats = features(fr)
     if alignment is not None and getattr(alignment, "phones", None):
         feats["rate"] = speaking_rate(alignment.phones, alignment.duration)
-    value = score(feats, model)
-    if len(fr.times) == 0:
+    heard = any(np.isfinite(feats[k]) for k in ("pitch", "centroid", "dynamics", "voiced"))
+    value = score(feats, model) if heard else 0.0   # nothing to judge: neutral
+    if len(fr.times) == 0 or not heard:
         return Estimate(value, feats)
     centres = np.arange(0.0, audio.duration + hop / 2, hop)
     raw = _window_scores(fr, centres, window, model, feats)
@@ -263,7 +264,10 @@ def estimate_file(path: str | os.PathLike, model: dict | None = None) -> Estimat
     snd = audio_mod.load(path)
     if snd.duration < 0.1:
         raise LipSyncError(f"audio file {os.fspath(path)} is too short to judge ({snd.duration:.3f} s)")
-    return estimate(snd, model=model)
+    est = estimate(snd, model=model)
+    if not np.isfinite(est.features["centroid"]):
+        raise LipSyncError(f"audio file {os.fspath(path)} holds no speech to judge (silence)")
+    return est
 
 
 # ---------------------------------------------------------------------------
