@@ -21,8 +21,8 @@ Fields (see ``data/presets/neutral.json`` for values):
     the audio, -1 calm to +1 excited, see ``arousal.py``) widens or narrows
     every viseme's weight range, on one scale across lines: at 1 a fully
     excited line's ranges are x1.35 and a fully calm one's x0.65 (the factor
-    is ``follow_voice_range`` in ``data/arousal.json``).  0 (the built-in
-    presets' value) leaves the weights as equations 1-2 give them.
+    is ``follow_voice_range`` in ``data/arousal.json``).  The built-in
+    presets use 0.5; 0 leaves the weights as equations 1-2 give them.
 ``rules.t_onset``, ``rules.t_offset``  seconds a viseme starts before its
     phoneme and lingers after it, before the influence factor.
 ``rules.apex``  where in the phoneme the viseme peaks, 0 (start) to 1 (end).
