@@ -52,6 +52,27 @@ class Prepared:
     pitch: np.ndarray = None
     intensity: np.ndarray = None
     stats: object = None
+    raw_t: np.ndarray = None     # the measured tracks as given (channels in fit order)
+    raw_y: np.ndarray = None
+    closure: np.ndarray = None   # (frames,) True inside /p b m/
+    closures: list = None        # the engine's closure step: (lo, hi, viseme, weight, envelope)
+
+    def aligned(self, delay: float) -> np.ndarray:
+        """The measured tracks on the model frames, read ``delay`` s later
+        (a capture that lags the sound by ``delay``)."""
+        y = np.empty((len(self.times), self.raw_y.shape[1]))
+        for j in range(y.shape[1]):
+            y[:, j] = np.interp(self.times + delay, self.raw_t, self.raw_y[:, j])
+        return y
+
+
+def _closures(events, times: np.ndarray) -> list:
+    out = []
+    for ev in events:
+        if ev.cls in coarticulation.CLOSURE_CLASSES and len(times):
+            lo, hi, env = coarticulation._envelope(times, ev, 0.03)
+            out.append((int(lo), int(hi), ev.viseme, float(ev.weight), env))
+    return out
 
 
 def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[str]) -> Prepared:
@@ -71,16 +92,22 @@ def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[s
     segs = coarticulation.segments_with_silence(events, duration, rest_i, rest_w)
     times = frame_times(duration, fps)
     order = [clip.channels.index(c) for c in channels]
+    raw_y = clip.tracks[:, order]
     y = np.empty((len(times), len(channels)))
-    for j, k in enumerate(order):
-        y[:, j] = np.interp(times, clip.times, clip.tracks[:, k])
+    for j in range(len(channels)):
+        y[:, j] = np.interp(times, clip.times, raw_y[:, j])
+    closure = np.zeros(len(times), bool)
+    for p in al.phones:
+        if p.phone in ("P", "B", "M"):
+            closure |= (times >= p.start) & (times <= p.end)
     targets = np.zeros((len(segs), len(vset.visemes)))
     for i, s in enumerate(segs):
         if s.viseme >= 0:
             targets[i, s.viseme] = s.weight
     return Prepared(clip.name, times, y, np.array([s.centre for s in segs]),
                      preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
-                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats)
+                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats,
+                    np.asarray(clip.times, float), raw_y, closure, _closures(events, times))
 
 
 
