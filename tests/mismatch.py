@@ -110,8 +110,9 @@ def sources():
             ("pause", FIXTURES / "pause.wav", "First part of the line. And the second part after a long pause.")]
 
 
-def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, **kw):
-    """Training clips with synthetic captures of the three proxy tracks."""
+def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, names=None, **kw):
+    """Training clips with synthetic captures of the three proxy tracks
+    (``names``: of these sources only)."""
     from addon.engine import audio as audio_mod
     from addon.engine import pipeline
     from addon.engine.learn import TrainingClip
@@ -119,6 +120,8 @@ def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, **kw):
     rng = np.random.default_rng(seed)
     out = []
     for name, path, text in sources():
+        if names is not None and name not in names:
+            continue
         snd = audio_mod.load(path)
         al = pipeline.align_audio(snd, text)
         for f in rates:

@@ -113,12 +113,14 @@ def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[s
 
 def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | None = None,
               transcript: str | None = None, alignment_path: str | os.PathLike | None = None,
-              capture_fps: float = 60.0, dictionary: str | None = None) -> TrainingClip:
+              capture_fps: float = 60.0, dictionary: str | None = None,
+              track_map: dict | None = None) -> TrainingClip:
     """A training clip from files: ``line.wav`` with ``line.csv`` (capture)
     and ``line.txt`` (transcript) or ``line.TextGrid`` (alignment) beside it,
-    unless given."""
+    unless given.  With ``track_map`` (:func:`..capture.load_track_map`)
+    the CSV holds generic tracks, else ARKit blendshapes."""
     from .. import audio as audio_mod
-    from ..capture import read_capture_csv
+    from ..capture import read_capture_csv, read_track_csv
     from ..importers import read_alignment
     from ..pipeline import align_audio
     from ..pronounce import Lexicon
@@ -128,7 +130,10 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
     stem = audio_path.with_suffix("")
     tracks_path = Path(tracks_path) if tracks_path else stem.with_suffix(".csv")
     snd = audio_mod.load(audio_path)
-    times, values, channels = read_capture_csv(tracks_path, capture_fps)
+    if track_map is not None:
+        times, values, channels = read_track_csv(tracks_path, track_map, capture_fps)
+    else:
+        times, values, channels = read_capture_csv(tracks_path, capture_fps)
     if alignment_path is None and transcript is None:
         grid = stem.with_suffix(".TextGrid")
         if grid.is_file():

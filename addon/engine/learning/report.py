@@ -149,3 +149,30 @@ def table(report: dict, channels: list[str] | None = None) -> str:
                          f"{f(t['start']['rmse'], '7.4f'):>9} {f(t['learned']['peak_timing_ms'], '6.1f'):>10} "
                          f"{f(t['start']['peak_timing_ms'], '6.1f'):>10}")
     return "\n".join(lines)
+
+
+def summary_text(report: dict) -> str:
+    """What ``learn`` prints: how it was evaluated, the comparison table,
+    the verdict and which preset was written."""
+    r = report
+    held = len(r["per_clip"])
+    lines = [f"{len(r['clips']['train'])} clips; evaluated on {held} held-out clip{'s' if held != 1 else ''} "
+             f"({r['evaluation']}); tracks: {r['tracks']}; capture delay {r['delay_ms']:.1f} ms "
+             f"(per fold: {', '.join(f'{d:.1f}' for d in r['delay_per_fold_ms'])})"]
+    if "pca" in r:
+        lines.append(f"{r['pca']['components']} components keep {100 * r['pca']['variance_kept']:.1f} % of the "
+                     f"variance")
+    lines.append(f"{r['fit']['iterations']} iterations ({r['fit']['stopped']}) in {r['fit']['seconds']:.1f} s")
+    lines.append(table(r))
+    for who, label in (("learned", "learned"), ("start", f"start ({r.get('base_preset')})")):
+        s = r["summary"][who]
+        pt = "-" if s["peak_timing_ms"] is None else f"{s['peak_timing_ms']:.1f} ms"
+        c = "-" if s["correlation"] is None else f"{s['correlation']:.3f}"
+        lines.append(f"  {label:18} held out: correlation {c}, RMSE {s['rmse']:.4f}, peak timing {pt}")
+    lines.append(r["verdict"] + ".")
+    if r.get("kept") == "start":
+        lines.append(f"kept the starting preset {r.get('base_preset')!r} under the new name "
+                     "(--keep-learned writes the learned one)")
+    elif not r["better_than_builtin"]:
+        lines.append("wrote the learned preset anyway, as asked")
+    return "\n".join(lines)
