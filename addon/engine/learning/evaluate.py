@@ -21,6 +21,15 @@ def correlation(a: np.ndarray, b: np.ndarray) -> float | None:
     return float((a * b).sum() / den) if den > 1e-12 else None
 
 
+def track_correlation(pred: np.ndarray, meas: np.ndarray) -> float | None:
+    """Correlation of a prediction with a measured track: None when the
+    measured track does not move, 0 when it moves and the prediction does not."""
+    if float(np.ptp(meas)) <= 1e-9:
+        return None
+    c = correlation(pred, meas)
+    return 0.0 if c is None else c
+
+
 def extrema(y: np.ndarray, half: int, prominence: float) -> list[tuple[int, int]]:
     """(frame, +1 for a peak / -1 for a trough) where ``y`` is the highest or
     lowest within ``half`` frames either side and stands out by at least
@@ -54,7 +63,7 @@ def peak_timing(pred: np.ndarray, meas: np.ndarray, fps: float, window: float = 
 
 def track_scores(pred: np.ndarray, meas: np.ndarray, fps: float) -> dict:
     """Correlation, RMSE and peak-timing error (ms) of one track."""
-    c = correlation(pred, meas)
+    c = track_correlation(pred, meas)
     pt = peak_timing(pred, meas, fps)
     return {"correlation": None if c is None else round(c, 4),
             "rmse": round(float(np.sqrt(((pred - meas) ** 2).mean())), 5),

@@ -16,7 +16,8 @@ the viseme's pose.  The predicted tracks are
 For shape keys M (visemes x channels) holds each viseme's pose, learned: as
 in the paper the poses live in a PCA basis of the training tracks, M = A P^T
 with P the components keeping ``variance`` (default 99 %) of the tracks'
-energy, and A is solved exactly at every step (variable projection).  For
+energy, and A is solved exactly at every step (variable projection); a
+viseme the clips never show keeps its starting pose outside that basis.  For
 proxies and viseme tracks M is fixed (:func:`.proxies.poses`) and each track
 has a gain and an offset solved the same way, so the fit is judged on the
 shape and timing of the motion, not its units: the squared error left after
@@ -339,7 +340,12 @@ def fit(setup: Setup, train: list[Prepared], valid: list[Prepared] | None = None
     out = Fit(Pm, float(d), d_score, history, best_it, stopped, len(free) + (0 if setup.calibrated else lin.size))
     out.pca = pca
     if not setup.calibrated:
-        M = lin @ basis.T
+        # A viseme the clips do not show keeps its starting pose where the basis does not reach
+        # (the shape keys only it moves); one they show is learned there too (as still).
+        bl, _ = obj.model.blend(Pm, False)
+        seen = sum((b ** 2).sum(axis=0) for b in bl)
+        shown = seen / (seen + 0.01 * max(float(seen.mean()), 1e-12))
+        M = lin @ basis.T + (1.0 - shown)[:, None] * (setup.M0 @ (np.eye(len(setup.channels)) - basis @ basis.T))
         out.clipped = int(np.sum(np.abs(M) > 3.0))
         M = np.clip(M, -3.0, 3.0)   # the range a preset allows; reported
         targets = {}
