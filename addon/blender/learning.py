@@ -13,7 +13,7 @@ import os
 
 import bpy
 import numpy as np
-from bpy.props import FloatProperty, StringProperty
+from bpy.props import BoolProperty, FloatProperty, StringProperty
 
 from ..engine import learn, presets
 from ..engine.errors import LipSyncError
@@ -61,7 +61,8 @@ def collect(scene, obj, strip_names: list[str] | None = None):
     return out
 
 
-def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progress=None) -> learn.Learned:
+def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progress=None,
+         keep_learned: bool = False) -> learn.Learned:
     """Align and fit (no Blender data touched: safe in a thread)."""
     clips = []
     for k, (label, audio, text, times, values, names) in enumerate(data):
@@ -70,17 +71,28 @@ def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progres
         al = align_audio(audio, text)
         clips.append(learn.TrainingClip(label, audio, al, times, values, names))
     return learn.learn(clips, emotion=emotion, viseme_set=viseme_set, name=name, holdout=holdout,
-                       progress=progress)
+                       progress=progress, keep_learned=keep_learned)
 
 
 def summary(result: learn.Learned, path: str) -> tuple[str, str]:
+    """The comparison with the starting preset on the held-out strips, in
+    one line (the full table is in the report beside the preset)."""
     r = result.report
-    lh, bh = r["learned"]["heldout"]["rmse"], r["builtin"]["heldout"]["rmse"]
-    msg = (f"Learned preset {r['name']!r} from {len(r['clips']['train'])} clips "
-           f"({len(r['clips']['heldout'])} held out): held-out RMSE {lh:.4f}, built-in {r['base_preset']} {bh:.4f}")
+    le, st = r["summary"]["learned"], r["summary"]["start"]
+
+    def num(v, fmt):
+        return "-" if v is None else format(v, fmt)
+
+    msg = (f"Learned preset {r['name']!r} from {len(r['clips']['train'])} clips ({r['evaluation']}, "
+           f"{len(r['per_clip'])} held out): correlation {num(le['correlation'], '.3f')} vs "
+           f"{num(st['correlation'], '.3f')} for {r['base_preset']}, RMSE {le['rmse']:.4f} vs {st['rmse']:.4f}, "
+           f"peak timing {num(le['peak_timing_ms'], '.0f')} vs {num(st['peak_timing_ms'], '.0f')} ms")
     if r["better_than_builtin"]:
         return "INFO", msg + f"; saved to {path}"
-    return "WARNING", msg + f": NOT better than the built-in preset (saved anyway to {path})"
+    if r["kept"] == "start":
+        return "WARNING", (msg + f": NOT better than {r['base_preset']}, so {r['name']!r} keeps "
+                           f"{r['base_preset']}'s numbers (saved to {path})")
+    return "WARNING", msg + f": NOT better than {r['base_preset']} (kept as asked; saved to {path})"
 
 
 #: Where each step of :func:`work` lies in the whole: (start, share).
@@ -88,7 +100,8 @@ PHASES = {"align": (0.0, 0.3), "prepare": (0.3, 0.1), "fit": (0.4, 0.5), "evalua
           "done": (1.0, 0.0)}
 
 
-def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: float) -> jobs.Job:
+def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: float,
+              keep_learned: bool = False) -> jobs.Job:
     """Learning as a job: the preset is saved with the user's presets and
     loaded into the scene's panel when it is done."""
     scene_name = scene.name
@@ -98,13 +111,14 @@ def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: fl
 
         path = os.path.join(user_dir(), name + ".json")
         result.save(path)
+        print(learn.summary_text(result.report))
         target = bpy.data.scenes.get(scene_name)
         if target is not None:
             target.emotive_lipsync.load_preset(result.preset, name)
         return summary(result, path)
 
     return jobs.Job(jobs.LEARN, f"Learning preset {name!r}",
-                    lambda progress: work(data, viseme_set, emotion, name, holdout, progress), finish,
+                    lambda progress: work(data, viseme_set, emotion, name, holdout, progress, keep_learned), finish,
                     phases=PHASES)
 
 
@@ -123,7 +137,11 @@ captured lip sync), and save it as one of your presets"""
     strips: StringProperty(name="Strips", description="Comma-separated strip names (empty: the strips of "
                                                       "this mesh, by the batch naming rule)")
     holdout: FloatProperty(name="Held Out", default=0.2, min=0.05, max=0.5,
-                           description="Share of the strips kept aside to check the learned preset")
+                           description="Share of the strips kept aside to check the learned preset when there "
+                                       "are more than 8 (with fewer, each strip is held out in turn)")
+    keep_learned: BoolProperty(name="Keep Learned", default=False,
+                               description="Keep the learned preset even when it is not better than the one it "
+                                           "started from on the held-out strips")
 
     def _prepare(self, context):
         from .operators import _mesh
@@ -142,7 +160,8 @@ captured lip sync), and save it as one of your presets"""
 
     def _job(self, context) -> jobs.Job:
         _obj, vset, data = self._prepare(context)
-        return learn_job(context.scene, vset, data, self.emotion, self.name.strip(), self.holdout)
+        return learn_job(context.scene, vset, data, self.emotion, self.name.strip(), self.holdout,
+                         self.keep_learned)
 
     def execute(self, context):
         try:

@@ -11,6 +11,10 @@ Accepted layout: a header row, then one row per captured frame.
   (``jawOpen``, ``JawOpen`` and ``jaw_open`` are the same), values 0-1.
 * Other columns (``BlendShapeCount``, head and eye rotations, anything else)
   are ignored.
+
+Any other per-frame CSV (articulography, landmark tracking) is read with a
+track map naming which columns are the jaw, lip-aperture and rounding
+proxies or visemes, and how to scale them: :func:`read_track_csv`.
 """
 
 from __future__ import annotations
@@ -100,3 +104,126 @@ def read_capture_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, n
         raise ImportFormatError(f"{path}, line {k + 3}: time does not increase ({times[k + 1]:.4f} s after "
                                 f"{times[k]:.4f} s)")
     return times - times[0], values, names
+
+
+# --- generic per-frame tracks ----------------------------------------------------------
+
+TRACK_MAP_HELP = ("a JSON file or COLUMN=TRACK[,COLUMN=TRACK...] (and time=COLUMN, time_unit=ms); TRACK is "
+                  "jaw, lip_aperture, rounding or viseme:NAME")
+
+
+def load_track_map(spec: str) -> dict:
+    """A column mapping for :func:`read_track_csv`: a JSON file::
+
+        {"time": "t_ms", "time_unit": "ms",
+         "columns": {"JawY": {"track": "jaw", "range": [0, 20]},
+                     "LA": {"track": "lip_aperture", "range": [0, 15]},
+                     "UL_x": "rounding", "p_aa": "viseme:aa"}}
+
+    or the same inline: ``time=t_ms,time_unit=ms,JawY=jaw,LA=lip_aperture``.  ``range``
+    [a, b] maps a to 0 and b to 1 (b below a turns a track over); without
+    it values are used as they are.  ``time`` names the time column
+    (default: ``time`` / ``seconds`` / ``Timecode`` as for ARKit captures),
+    ``time_unit`` is ``s`` (default) or ``ms``."""
+    from .learning.proxies import PROXIES, VISEME_PREFIX
+
+    path = Path(spec)
+    if path.suffix.lower() == ".json" or path.is_file():
+        import json
+
+        if not path.is_file():
+            raise ImportFormatError(f"track map not found: {path}")
+        try:
+            m = json.loads(path.read_text(encoding="utf-8"))
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise ImportFormatError(f"{path}: not valid JSON ({exc})") from None
+        where = str(path)
+    else:
+        m, where = {"columns": {}}, "track map"
+        for part in spec.split(","):
+            if "=" not in part:
+                raise ImportFormatError(f"track map {spec!r}: {part!r} is not COLUMN=TRACK")
+            k, v = (x.strip() for x in part.split("=", 1))
+            if k in ("time", "time_unit"):
+                m[k] = v
+            else:
+                m["columns"][k] = v
+    if not isinstance(m, dict) or not isinstance(m.get("columns"), dict) or not m["columns"]:
+        raise ImportFormatError(f"{where}: needs \"columns\": {{column: track}}")
+    out = {"time": m.get("time"), "time_unit": m.get("time_unit", "s"), "columns": {}}
+    if out["time_unit"] not in ("s", "ms"):
+        raise ImportFormatError(f"{where}: time_unit must be \"s\" or \"ms\"")
+    for col, spec_ in m["columns"].items():
+        spec_ = {"track": spec_} if isinstance(spec_, str) else spec_
+        track = spec_.get("track") if isinstance(spec_, dict) else None
+        if not isinstance(track, str) or not (track in PROXIES or (track.startswith(VISEME_PREFIX)
+                                                                    and len(track) > len(VISEME_PREFIX))):
+            raise ImportFormatError(f"{where}: column {col!r} maps to {track!r}; a track is "
+                                    f"{', '.join(PROXIES)} or viseme:NAME")
+        rng = spec_.get("range")
+        if rng is not None and not (isinstance(rng, list) and len(rng) == 2
+                                    and all(isinstance(x, (int, float)) for x in rng) and rng[0] != rng[1]):
+            raise ImportFormatError(f"{where}: column {col!r}: range must be two different numbers [a, b]")
+        out["columns"][col] = (track, rng)
+    tracks = [t for t, _r in out["columns"].values()]
+    if len(set(tracks)) != len(tracks):
+        raise ImportFormatError(f"{where}: two columns map to the same track")
+    return out
+
+
+def read_track_csv(path: str | Path, track_map: dict, fps: float = 60.0
+                   ) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(times in s from the first row, values (rows, tracks), track names)
+    from any per-frame CSV whose columns ``track_map`` names
+    (:func:`load_track_map`)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ImportFormatError(f"track file not found: {path}")
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        rows = [r for r in csv.reader(fh) if any(c.strip() for c in r)]
+    if len(rows) < 3:
+        raise ImportFormatError(f"{path}: needs a header row and at least two frames")
+    header = [h.strip() for h in rows[0]]
+    lower = [h.lower() for h in header]
+    tname = track_map.get("time")
+    if tname:
+        if tname not in header:
+            raise ImportFormatError(f"{path}: no time column {tname!r}; the header is {', '.join(header[:8])}")
+        t_col, is_tc = header.index(tname), False
+    elif "timecode" in lower:
+        t_col, is_tc = lower.index("timecode"), True
+    else:
+        t_col = next((lower.index(n) for n in _TIME_SECONDS if n in lower), None)
+        is_tc = False
+        if t_col is None:
+            raise ImportFormatError(f"{path}: no time column (name it in the track map's \"time\")")
+    unit = 0.001 if track_map.get("time_unit") == "ms" else 1.0
+    cols = []
+    for col, (track, rng) in track_map["columns"].items():
+        if col not in header:
+            raise ImportFormatError(f"{path}: no column {col!r}; the header is {', '.join(header[:8])}"
+                                    f"{' ...' if len(header) > 8 else ''}")
+        cols.append((header.index(col), col, track, rng))
+    times = np.empty(len(rows) - 1)
+    values = np.empty((len(rows) - 1, len(cols)))
+    for i, row in enumerate(rows[1:]):
+        where = f"{path}, line {i + 2}"
+        if len(row) != len(header):
+            raise ImportFormatError(f"{where}: {len(row)} values, but the header has {len(header)} columns")
+        try:
+            times[i] = _timecode(row[t_col], fps, where) if is_tc else float(row[t_col]) * unit
+        except ValueError:
+            raise ImportFormatError(f"{where}: time {row[t_col]!r} is not a number") from None
+        for j, (k, col, _t, rng) in enumerate(cols):
+            try:
+                v = float(row[k])
+            except ValueError:
+                raise ImportFormatError(f"{where}: {col} = {row[k]!r} is not a number") from None
+            values[i, j] = v if rng is None else (v - rng[0]) / (rng[1] - rng[0])
+    if not np.all(np.isfinite(values)) or not np.all(np.isfinite(times)):
+        raise ImportFormatError(f"{path}: holds NaN or infinite values")
+    if np.any(np.diff(times) <= 0):
+        k = int(np.flatnonzero(np.diff(times) <= 0)[0])
+        raise ImportFormatError(f"{path}, line {k + 3}: time does not increase ({times[k + 1]:.4f} s after "
+                                f"{times[k]:.4f} s)")
+    return times - times[0], values, [t for _k, _c, t, _r in cols]

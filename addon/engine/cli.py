@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import presets, visemes
+from . import capture, presets, visemes
 from .errors import LipSyncError
 from .text import read_text_file
 
@@ -56,7 +56,13 @@ def _parser() -> argparse.ArgumentParser:
     le.add_argument("--name", help="preset name (default: the file's name)")
     le.add_argument("--emotion", default="neutral", help="built-in preset to start from (default: neutral)")
     le.add_argument("--viseme-set", default="arkit", help="viseme set to learn poses for (default: arkit)")
-    le.add_argument("--holdout", type=float, default=0.2, help="share of clips held out (default: 0.2)")
+    le.add_argument("--holdout", type=float, default=0.2,
+                    help="share of clips held out when there are more than 8 (default: 0.2); with 8 or fewer "
+                         "each clip is held out in turn")
+    le.add_argument("--track-map", metavar="MAP",
+                    help="the CSVs hold generic tracks, not ARKit blendshapes: " + capture.TRACK_MAP_HELP)
+    le.add_argument("--keep-learned", action="store_true",
+                    help="write the learned preset even when it is not better than the starting one")
     le.add_argument("--variance", type=float, default=0.99, help="share of variance the PCA keeps (0.99)")
     le.add_argument("--capture-fps", type=float, default=60.0, help="frame rate of CSV timecodes (60)")
     le.add_argument("--fps", type=float, default=30.0, help="frame rate the model is fitted at (30)")
@@ -145,31 +151,23 @@ def _learn(args) -> int:
             raise LipSyncError("--holdout must be between 0 and 1")
         if not (0.5 <= args.variance <= 1.0):
             raise LipSyncError("--variance must be between 0.5 and 1")
+        track_map = capture.load_track_map(args.track_map) if args.track_map else None
         clips = []
         for k, path in enumerate(args.audio):
             progress("align", k / len(args.audio))
-            clips.append(learn.load_clip(path, capture_fps=args.capture_fps, dictionary=args.dictionary))
+            clips.append(learn.load_clip(path, capture_fps=args.capture_fps, dictionary=args.dictionary,
+                                         track_map=track_map))
         name = args.name or Path(args.out).stem
         result = learn.learn(clips, emotion=args.emotion, viseme_set=args.viseme_set, name=name,
-                             holdout=args.holdout, variance=args.variance, fps=args.fps, progress=progress)
+                             holdout=args.holdout, variance=args.variance, fps=args.fps, progress=progress,
+                             keep_learned=args.keep_learned)
         preset_path, report_path = result.save(args.out)
     except LipSyncError as exc:
         print(f"\nerror: {exc}", file=sys.stderr)
         return 1
     r = result.report
     print(file=sys.stderr)
-    print(f"{len(r['clips']['train'])} training clips, {len(r['clips']['heldout'])} held out; "
-          f"{r['pca']['components']} components keep {100 * r['pca']['variance_kept']:.1f} % of the variance; "
-          f"{r['fit']['iterations']} iterations ({r['fit']['stopped']}) in {r['fit']['seconds']:.1f} s")
-    for who in ("learned", "builtin"):
-        h, t = r[who]["heldout"], r[who]["train"]
-        print(f"  {who:8} RMSE train {t['rmse']:.4f}, held out {h['rmse']:.4f} "
-              f"(variance explained {h['variance_explained']:.3f})")
-    if r["better_than_builtin"]:
-        print(f"the learned preset beats the built-in {r['base_preset']!r} on the held-out clips")
-    else:
-        print(f"the learned preset does NOT beat the built-in {r['base_preset']!r} on the held-out clips; "
-              "keep using the built-in one (or add more clips)")
+    print(learn.summary_text(r))
     print(f"wrote {preset_path} and {report_path}")
     return 0
 

@@ -390,6 +390,6 @@ def test_learn_preset_job_saves_only_when_it_finishes(scene, jobs):
         seen.append(job.fraction)
         time.sleep(0.01)
     outcome = job.poll()
-    assert outcome.finished and outcome.message.startswith("Learned preset 'kit_job' from 2 clips")
+    assert outcome.finished and outcome.message.startswith("Learned preset 'kit_job' from 3 clips (leave-one-clip-out, 3 held out)")
     assert os.path.isfile(path) and scene.emotive_lipsync.emotion == "kit_job"
     assert seen == sorted(seen) and job.fraction == 1.0  # the steps add up to one bar

@@ -1,0 +1,143 @@
+"""The model the fit adjusts: the dominance blend of each clip's viseme
+events with its derivatives in the log-parameters, the poses solved by
+ridge regression, and the engine's full synthesis path for evaluation."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from .. import coarticulation, mapping
+from ..phonemes import CLASSES
+from .data import Prepared
+
+PARAMS = ("alpha", "theta", "phi", "c")
+#: Bounds of the fitted parameters (the log of these bounds the search).
+BOUNDS = {"alpha": (0.02, 50.0), "theta": (1.0, 250.0), "phi": (1.0, 250.0), "c": (0.5, 2.0)}
+REFERENCE_CLASS = "vowel"       # its alpha is held: the blend depends on alpha ratios only
+
+
+class Model:
+    """The dominance blend of one set of clips, and its derivatives."""
+
+    def __init__(self, clips: list[Prepared], fps: float, sigma: float, free: list[tuple[int, int]],
+                 strength: float = 0.0):
+        self.clips, self.fps, self.sigma, self.free = clips, fps, sigma, free
+        self.strength = strength
+        # The smoothing is linear in time: one matrix per clip smooths every column at once.
+        self.smoothers = [coarticulation.smooth(np.eye(len(c.times)), fps, sigma) for c in clips]
+
+    def blend(self, P: np.ndarray, want_jac: bool):
+        """Smoothed blends C (frames, visemes) per clip, and dC/dq for the
+        free log-parameters q per clip, as (frames, free, visemes)."""
+        out, jacs = [], []
+        for c, K in zip(self.clips, self.smoothers):
+            par = P[c.cls]                                     # (segments, 4)
+            d = c.times[None, :] - c.centres[:, None]
+            dist = np.maximum(np.abs(d) - c.half[:, None], 0.0)
+            before = d < 0
+            rate = np.where(before, par[:, 1:2], par[:, 2:3])
+            dc = dist ** par[:, 3:4]
+            D = par[:, 0:1] * np.exp(-rate * dc)
+            S = np.maximum(D.sum(axis=0), 1e-300)
+            C = (D.T @ c.targets) / S[:, None]
+            Cs = K @ C
+            masks = _closure_masks(Cs, c.closures, self.strength)
+            out.append(_apply(Cs, masks, True))
+            if not want_jac:
+                continue
+            with np.errstate(divide="ignore", invalid="ignore"):
+                logd = np.where(dist > 0, np.log(np.where(dist > 0, dist, 1.0)), 0.0)
+            G = {0: D,
+                 1: -par[:, 1:2] * dc * D * before,
+                 2: -par[:, 2:3] * dc * D * ~before,
+                 3: -rate * par[:, 3:4] * dc * logd * D}
+            R = np.zeros((len(c.times), len(self.free), C.shape[1]))
+            for i, (k, p) in enumerate(self.free):
+                m = c.cls == k
+                if m.any():
+                    g = G[p][m]
+                    R[:, i, :] = (g.T @ c.targets[m] - C * g.sum(axis=0)[:, None]) / S[:, None]
+            R = (K @ R.reshape(len(c.times), -1)).reshape(R.shape)
+            jacs.append(_apply(R, masks, False))
+        return out, jacs
+
+
+def _closure_masks(C: np.ndarray, closures, strength: float):
+    """The engine's closure step (:func:`..coarticulation.enforce_closures`)
+    as masks: per closure, (lo, hi, viseme, scale of every viseme, where
+    the viseme keeps its own value, the value it is raised to)."""
+    masks = []
+    if not closures or strength <= 0:
+        return masks
+    cur = C.copy()
+    for lo, hi, v, w, env in closures:
+        scale = 1.0 - strength * env
+        own = cur[lo:hi, v].copy()
+        floor = w * env
+        keep = own >= floor
+        cur[lo:hi] *= scale[:, None]
+        cur[lo:hi, v] = np.where(keep, own, floor)
+        masks.append((lo, hi, v, scale, keep, floor))
+    return masks
+
+
+def _apply(C: np.ndarray, masks, values: bool) -> np.ndarray:
+    """Apply the closure masks to curves (``values``) or to their
+    derivatives (frames first, visemes last; a raised value does not move)."""
+    if not masks:
+        return C
+    out = C.copy()
+    for lo, hi, v, scale, keep, floor in masks:
+        sh = (hi - lo,) + (1,) * (C.ndim - 1)
+        own = out[lo:hi, ..., v].copy()
+        out[lo:hi] *= scale.reshape(sh)
+        k = keep.reshape(sh[:-1]) if C.ndim > 2 else keep
+        raised = floor.reshape(sh[:-1]) if (values and C.ndim > 2) else (floor if values else 0.0)
+        out[lo:hi, ..., v] = np.where(k, own, raised)
+    return out
+
+
+def solve_poses(blends, zs, ridge, prior):
+    """Poses A minimising sum ||C A - Z||^2 + lam ||A - prior||^2, with lam
+    ``ridge`` times the mean of diag(C^T C): a viseme the clips barely show
+    stays near the viseme set's own pose instead of fitting the noise."""
+    CtC = sum(C.T @ C for C in blends)
+    CtZ = sum(C.T @ Z for C, Z in zip(blends, zs))
+    n = CtC.shape[0]
+    lam = ridge * max(float(np.trace(CtC)) / n, 1e-12)
+    return np.linalg.solve(CtC + lam * np.eye(n), CtZ + lam * prior)
+
+
+def params_matrix(preset: dict) -> np.ndarray:
+    cl = preset["dominance"]["classes"]
+    return np.array([[cl[c][p] for p in PARAMS] for c in CLASSES], float)
+
+
+def viseme_curves(clip: Prepared, preset: dict, vset, fps: float) -> np.ndarray:
+    """(frames, visemes): the curves the engine makes for a prepared clip
+    (the full synthesis path), on the clip's model frames."""
+    from ..pipeline import curves
+
+    al = copy.copy(clip.alignment)
+    al.duration = float(clip.times[-1]) if len(clip.times) else al.duration
+    _w, _times, out = curves(al, clip.pitch, clip.intensity, clip.stats, vset, preset, "dominance", fps)
+    res = np.zeros((len(clip.times), out.shape[1]))
+    n = min(len(out), len(clip.times))
+    res[:n] = out[:n]
+    return res
+
+
+def synthesise(clip: Prepared, preset: dict, vset, channels: list[str], fps: float,
+               mp: dict[str, dict[str, float]]) -> np.ndarray:
+    """Tracks the engine makes for a prepared clip (the full synthesis path)."""
+    out = viseme_curves(clip, preset, vset, fps)
+    times = clip.times
+    names, values = mapping.shape_key_curves(out, vset.visemes, mp)
+    res = np.zeros((len(clip.times), len(channels)))
+    n = min(len(times), len(clip.times))
+    for j, c in enumerate(channels):
+        if c in names:
+            res[:n, j] = values[:n, names.index(c)]
+    return res
