@@ -43,7 +43,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import coarticulation, mapping, presets, prosody, visemes
+from . import coarticulation, mapping, pauses, presets, prosody, visemes
 from .align import Alignment
 from .audio import Audio
 from .errors import LipSyncError
@@ -90,6 +90,7 @@ class _Prepared:
     pitch: np.ndarray = None
     intensity: np.ndarray = None
     stats: object = None
+    rest: np.ndarray = None      # per frame: 0 where a pause forces the rest pose (pauses.rest_envelope)
 
 
 @dataclass
@@ -133,9 +134,12 @@ def _prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[
     for i, s in enumerate(segs):
         if s.viseme >= 0:
             targets[i, s.viseme] = s.weight
+    cfg = pauses.settings()["rest"]
+    rest = pauses.rest_envelope(times, pauses.gaps([(p.start, p.end) for p in al.phones], duration,
+                                                   cfg["min_pause"]), cfg["ramp"], duration)
     return _Prepared(clip.name, times, y, np.array([s.centre for s in segs]),
                      preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
-                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats)
+                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats, rest)
 
 
 class _Model:
@@ -158,7 +162,7 @@ class _Model:
             D = par[:, 0:1] * np.exp(-rate * dc)
             S = np.maximum(D.sum(axis=0), 1e-300)
             C = (D.T @ c.targets) / S[:, None]
-            out.append(coarticulation.smooth(C, self.fps, self.sigma))
+            out.append(coarticulation.smooth(C, self.fps, self.sigma) * c.rest[:, None])
             if not want_jac:
                 continue
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -175,7 +179,7 @@ class _Model:
                     continue
                 g = G[p][m]
                 dC = (g.T @ c.targets[m] - C * g.sum(axis=0)[:, None]) / S[:, None]
-                cj.append(coarticulation.smooth(dC, self.fps, self.sigma))
+                cj.append(coarticulation.smooth(dC, self.fps, self.sigma) * c.rest[:, None])
             jacs.append(cj)
         return out, jacs
 
