@@ -85,12 +85,8 @@ def reference_pauses(phones) -> list[tuple[float, float]]:
 
 def our_states(result, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rest, closed) per frame of ``t`` from an analysis result."""
-    k = np.clip(np.searchsorted(result.times, t) - 1, 0, len(result.times) - 1)
-    nxt = np.clip(k + 1, 0, len(result.times) - 1)
-    # nearest output frame
-    k = np.where(np.abs(result.times[nxt] - t) < np.abs(result.times[k] - t), nxt, k)
-    curves = result.curves[k]
-    closure = result.closure[k] if len(result.closure) else np.zeros(len(t))
+    curves = np.stack([np.interp(t, result.times, c) for c in result.curves.T], axis=1)
+    closure = np.interp(t, result.times, result.closure) if len(result.closure) else np.zeros(len(t))
     mbp = result.viseme_set.index(result.viseme_set.of("M")[0])
     rest = (curves.max(axis=1) <= REST_MAX) & (closure < CLOSED_MIN)
     closed = (closure >= CLOSED_MIN) | ((curves[:, mbp] >= CLOSED_MIN) & (curves.argmax(axis=1) == mbp))

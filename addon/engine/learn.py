@@ -12,7 +12,11 @@ the viseme's pose.  The predicted tracks are
 
     Y(t) = smooth( sum_i D_i(t) w_i e_{v_i} / sum_i D_i(t) ) @ M
 
-where M (visemes x channels) holds each viseme's pose.  As in the paper the
+where M (visemes x channels) holds each viseme's pose, times the rest
+envelope of the pauses (:mod:`.pauses`) and with closure visemes capped on
+vowels as the engine caps them (:func:`.coarticulation.closure_caps`).  The
+frames around /p b m f v/, which the engine's closure step rewrites, are
+left out of the fit.  As in the paper the
 poses live in a PCA basis of the training tracks: M = A P^T with P the
 components keeping ``variance`` (default 99 %) of the tracks' energy.
 
@@ -48,6 +52,9 @@ from .align import Alignment
 from .audio import Audio
 from .errors import LipSyncError
 from .phonemes import CLASSES
+
+#: How far (s) around a closure the closure step rewrites the blend.
+CLOSURE_REACH = 0.03
 
 PARAMS = ("alpha", "theta", "phi", "c")
 #: Bounds of the fitted parameters (the log of these bounds the search).
@@ -91,6 +98,8 @@ class _Prepared:
     intensity: np.ndarray = None
     stats: object = None
     rest: np.ndarray = None      # per frame: 0 where a pause forces the rest pose (pauses.rest_envelope)
+    caps: dict = None            # closure viseme -> (vowel frames, cap): coarticulation.closure_caps
+    fit: np.ndarray = None       # per frame: 1 if the blend is fitted there, 0 where closures rewrite it
 
 
 @dataclass
@@ -137,9 +146,16 @@ def _prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[
     cfg = pauses.settings()["rest"]
     rest = pauses.rest_envelope(times, pauses.gaps([(p.start, p.end) for p in al.phones], duration,
                                                    cfg["min_pause"]), cfg["ramp"], duration)
+    # The closure step rewrites the frames around every /p b m f v/: the blend is not fitted there.
+    fit = np.ones(len(times))
+    for ev in events:
+        if ev.cls in coarticulation.CLOSURE_CLASSES:
+            lo, hi = np.searchsorted(times, [ev.start - CLOSURE_REACH, ev.end + CLOSURE_REACH])
+            fit[lo:hi] = 0.0
     return _Prepared(clip.name, times, y, np.array([s.centre for s in segs]),
                      preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
-                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats, rest)
+                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats, rest,
+                     coarticulation.closure_caps(times, events), fit)
 
 
 class _Model:
@@ -162,7 +178,13 @@ class _Model:
             D = par[:, 0:1] * np.exp(-rate * dc)
             S = np.maximum(D.sum(axis=0), 1e-300)
             C = (D.T @ c.targets) / S[:, None]
-            out.append(coarticulation.smooth(C, self.fps, self.sigma) * c.rest[:, None])
+            Cs = coarticulation.smooth(C, self.fps, self.sigma) * c.rest[:, None]
+            bound = []   # (frames, viseme) where a closure cap holds the curve: no derivative there
+            for v, (frames, cap) in (c.caps or {}).items():
+                hit = frames[Cs[frames, v] > cap]
+                Cs[frames, v] = np.minimum(Cs[frames, v], cap)
+                bound.append((hit, v))
+            out.append(Cs * c.fit[:, None])
             if not want_jac:
                 continue
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -179,7 +201,10 @@ class _Model:
                     continue
                 g = G[p][m]
                 dC = (g.T @ c.targets[m] - C * g.sum(axis=0)[:, None]) / S[:, None]
-                cj.append(coarticulation.smooth(dC, self.fps, self.sigma) * c.rest[:, None])
+                dCs = coarticulation.smooth(dC, self.fps, self.sigma) * c.rest[:, None]
+                for hit, v in bound:
+                    dCs[hit, v] = 0.0
+                cj.append(dCs * c.fit[:, None])
             jacs.append(cj)
         return out, jacs
 
@@ -281,8 +306,8 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_
     K = int(np.searchsorted(energy, variance) + 1)
     K = min(K, len(s))
     P = vt[:K].T                                                   # (channels, K)
-    z_train = [c.y @ P for c in train]
-    z_hold = [c.y @ P for c in hold]
+    z_train = [(c.y @ P) * c.fit[:, None] for c in train]
+    z_hold = [(c.y @ P) * c.fit[:, None] for c in hold]
 
     base_mp = mapping.auto_map(vset, channels)
     M0 = np.zeros((len(vset.visemes), len(channels)))
