@@ -220,3 +220,18 @@ def test_learn_command_line(examples, tmp_path, capsys):
     assert (tmp_path / "mine.report.json").is_file()
     assert cli_main(["learn", wavs[0], "--out", str(out)]) == 1
     assert "at least two clips" in capsys.readouterr().err
+
+
+def test_fit_model_is_the_engines_synthesis(examples):
+    """The blend the fit adjusts, with the engine's rest in pauses, closure
+    step and closure caps on vowels, gives the curves the engine makes."""
+    from addon.engine.learning.model import Model, params_matrix, viseme_curves
+
+    clips, truth = examples
+    vs = visemes.load("arkit")
+    for clip in (clips[4], clips[10]):   # fast bilabials; the line with a long pause
+        prepared = learn._prepare(clip, vs, truth, 60.0, CHANNELS)
+        model = Model([prepared], 60.0, truth["smoothing"], [], truth["closure"]["strength"])
+        (blend,), _ = model.blend(params_matrix(truth), want_jac=False)
+        engine = viseme_curves(prepared, truth, vs, 60.0)
+        assert np.abs(np.clip(blend * truth["gain"], 0, 1) - engine).max() < 1e-6

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .pauses import settings as timing_settings
 from .phonemes import SILENCE, phone_class
 
 CLOSURE_CLASSES = ("bilabial", "labiodental")
@@ -201,41 +202,90 @@ def smooth(curves: np.ndarray, fps: float, sigma_s: float) -> np.ndarray:
     return out
 
 
-def _envelope(times: np.ndarray, ev: Event, ramp: float) -> tuple[int, int, np.ndarray]:
-    """Frames [lo, hi) around ``ev`` and how closed the lips are on each:
-    1 during the phoneme, falling to 0 over ``ramp`` seconds either side; a
-    phoneme shorter than a frame gets the frame nearest its centre."""
-    lo, hi = np.searchsorted(times, [ev.start - ramp, ev.end + ramp])
-    inside = (times[lo:hi] >= ev.start) & (times[lo:hi] <= ev.end)
+def _envelope(times: np.ndarray, ev: Event, ramp: float, approach: float | None = None,
+              margin: float | None = None) -> tuple[int, int, np.ndarray]:
+    """Frames [lo, hi) around ``ev`` and how closed the lips are on each.
+
+    The lips are fully closed (1) on the core of the phoneme: its span less
+    ``closure.margin`` seconds at either end (``data/timing.json``; never
+    shorter than ``closure.min_core``), so a boundary the aligner puts a frame
+    too late or too early does not close the lips on the neighbouring vowel.
+    Outside the core they are only approaching: from ``approach``
+    (``closure.approach``, below one half) at the core's edge down to 0 over
+    ``ramp`` seconds.  A core with no frame in it gets the frame nearest the
+    phoneme's centre.  ``approach=1, margin=0``: the whole phoneme, ramping
+    from 1 at its edges."""
+    cfg = timing_settings()["closure"]
+    if approach is None:
+        approach = cfg["approach"]
+    margin = cfg["margin"] if margin is None else margin
+    margin = float(np.clip((ev.end - ev.start - cfg["min_core"]) / 2, 0.0, margin))
+    a, b = ev.start + margin, ev.end - margin
+    lo, hi = np.searchsorted(times, [a - ramp, b + ramp])
+    inside = (times[lo:hi] >= a) & (times[lo:hi] <= b)
     if not inside.any():
         k = int(np.clip(np.searchsorted(times, ev.centre), 0, len(times) - 1))
         if k > 0 and abs(times[k - 1] - ev.centre) < abs(times[k] - ev.centre):
             k -= 1
         return k, k + 1, np.ones(1)
     t = times[lo:hi]
-    return lo, hi, np.where(inside, 1.0, 1.0 - np.minimum(np.abs(t - np.clip(t, ev.start, ev.end)) / ramp, 1.0))
+    return lo, hi, np.where(inside, 1.0, approach * (1.0 - np.minimum(np.abs(t - np.clip(t, a, b)) / ramp, 1.0)))
 
 
 def enforce_closures(curves: np.ndarray, times: np.ndarray, events: list[Event],
                      strength: float, ramp: float = 0.03) -> np.ndarray:
-    """Make every bilabial and labiodental closure visible (module docstring)."""
+    """Make every bilabial and labiodental closure visible (module docstring).
+
+    The other visemes are suppressed over the whole phoneme; the closure
+    viseme reaches its target on the phoneme's core (:func:`_envelope`).  A
+    closure viseme (one only closures map to) is also kept below what its
+    closures allow during vowels: the dominance blend's tail of a strong
+    closure must not pull the lips shut inside an open vowel, so there the
+    viseme is capped by the closures' approach envelopes, fading over
+    ``closure.tail`` seconds (``data/timing.json``)."""
     if len(times) == 0:
         return curves
     out = curves
     for ev in events:
         if ev.cls not in CLOSURE_CLASSES:
             continue
+        lo, hi, env = _envelope(times, ev, ramp, approach=1.0, margin=0.0)
+        own = out[lo:hi, ev.viseme].copy()
+        out[lo:hi] *= (1.0 - strength * env)[:, None]
+        out[lo:hi, ev.viseme] = own
         lo, hi, env = _envelope(times, ev, ramp)
-        block = out[lo:hi]
-        own = block[:, ev.viseme].copy()
-        block *= (1.0 - strength * env)[:, None]
-        block[:, ev.viseme] = np.maximum(own, ev.weight * env)
+        np.maximum(out[lo:hi, ev.viseme], ev.weight * env, out=out[lo:hi, ev.viseme])
+    for v, (frames, cap) in closure_caps(times, events).items():
+        out[frames, v] = np.minimum(out[frames, v], cap)
     return out
+
+
+def closure_caps(times: np.ndarray, events: list[Event]) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """For each closure viseme (one only closures map to): the vowel frames
+    and the most that viseme may show on them (see :func:`enforce_closures`)."""
+    tail = timing_settings()["closure"]["tail"]
+    own_only = {ev.viseme for ev in events if ev.cls in CLOSURE_CLASSES} - \
+        {ev.viseme for ev in events if ev.cls not in CLOSURE_CLASSES}
+    if not own_only or len(times) == 0:
+        return {}
+    vowel = np.zeros(len(times), bool)
+    for ev in events:
+        if ev.cls == "vowel":
+            lo, hi = np.searchsorted(times, [ev.start, ev.end])
+            vowel[lo:hi] = True
+    frames = np.flatnonzero(vowel)
+    cap = {v: np.zeros(len(times)) for v in own_only}
+    for ev in events:
+        if ev.viseme in cap:
+            lo, hi, env = _envelope(times, ev, tail)
+            np.maximum(cap[ev.viseme][lo:hi], ev.weight * env, out=cap[ev.viseme][lo:hi])
+    return {v: (frames, c[frames]) for v, c in cap.items()}
 
 
 def closure_track(times: np.ndarray, phones: list[tuple[str, float, float]], ramp: float = 0.03) -> np.ndarray:
     """Per frame, how fully the lips must be closed: 1 during every /p b m/,
-    ramping to 0 over ``ramp`` seconds, 0 elsewhere.  A rig applies it the
+    approaching from below one half over ``ramp`` seconds either side (see
+    :func:`_envelope`), 0 elsewhere.  A rig applies it the
     way its shape keys close the lips (:mod:`.conventions`)."""
     out = np.zeros(len(times))
     if len(times) == 0:

@@ -22,12 +22,14 @@ class AlignmentError(LipSyncError):
 class UnknownLabelError(LipSyncError):
     """A phone or mouth-shape label in an imported file is not recognised."""
 
-    def __init__(self, label: str, phoneset: str = "auto", where: str = ""):
+    def __init__(self, label: str, phoneset: str = "auto", where: str = "", symbol: str | None = None):
         self.label = label
         self.phoneset = phoneset
+        self.symbol = symbol
         place = f" in {where}" if where else ""
+        what = f": {symbol!r} is not an IPA symbol" if symbol and symbol != label else ""
         super().__init__(
-            f"unknown phone label {label!r}{place} (phone set: {phoneset}); "
+            f"unknown phone label {label!r}{place}{what} (phone set: {phoneset}); "
             "use ARPAbet, IPA or SAMPA labels"
         )
 

@@ -209,7 +209,7 @@ def read_textgrid(path, phoneset: str = "auto", audio_duration: float | None = N
         try:
             arpa = to_arpabet(label, phoneset)
         except UnknownLabelError as exc:
-            raise UnknownLabelError(label, phoneset, f"{path.name} at {a:.3f} s") from exc
+            raise UnknownLabelError(label, phoneset, f"{path.name} at {a:.3f} s", exc.symbol) from None
         if arpa == [SILENCE]:
             continue
         step = (b - a) / len(arpa)

@@ -1,5 +1,7 @@
 """The ARPAbet phoneme inventory and conversions from IPA and SAMPA.
 
+IPA of any language is read by articulatory features (:mod:`.ipa`).
+
 Everything inside the engine speaks ARPAbet without stress digits (``AH``, not
 ``AH0``), plus ``SIL`` for silence.  Labels written by other tools (Montreal
 Forced Aligner, praat TextGrids, Papagayo, Rhubarb) are converted here, and a
@@ -9,8 +11,8 @@ label that cannot be converted raises :class:`UnknownLabelError` naming it.
 from __future__ import annotations
 
 import re
-import unicodedata
 
+from . import ipa
 from .errors import UnknownLabelError
 
 SILENCE = "SIL"
@@ -100,21 +102,6 @@ def split_arpabet(label: str) -> list[str] | None:
     return out if len(out) == 2 and out[0] != out[1] else None
 
 
-# IPA -> ARPAbet.  Longest symbols are matched first, so diphthongs and
-# affricates written as two letters win over their parts.
-IPA = {
-    "ɑ": "AA", "a": "AA", "ɒ": "AA", "æ": "AE", "ʌ": "AH", "ə": "AH", "ɐ": "AH",
-    "ɔ": "AO", "aʊ": "AW", "aɪ": "AY", "ɛ": "EH", "e": "EH", "ɝ": "ER", "ɚ": "ER",
-    "ɜ": "ER", "ɜr": "ER", "eɪ": "EY", "ɪ": "IH", "ɨ": "IH", "i": "IY", "oʊ": "OW",
-    "əʊ": "OW", "o": "OW", "ɔɪ": "OY", "ʊ": "UH", "u": "UW", "œ": "ER", "ø": "ER",
-    "y": "UW", "ɵ": "UH",
-    "b": "B", "tʃ": "CH", "t͡ʃ": "CH", "ʧ": "CH", "d": "D", "ð": "DH", "ɾ": "D", "f": "F",
-    "ɡ": "G", "g": "G", "h": "HH", "ɦ": "HH", "dʒ": "JH", "d͡ʒ": "JH", "ʤ": "JH",
-    "k": "K", "l": "L", "ɫ": "L", "m": "M", "n": "N", "ŋ": "NG", "p": "P",
-    "ɹ": "R", "r": "R", "ɻ": "R", "s": "S", "ʃ": "SH", "t": "T", "θ": "TH", "v": "V",
-    "w": "W", "j": "Y", "z": "Z", "ʒ": "ZH", "ʔ": "T", "m̩": "M", "n̩": "N", "l̩": "L",
-}
-
 # X-SAMPA / SAMPA (English) -> ARPAbet.
 SAMPA = {
     "A": "AA", "A:": "AA", "Q": "AA", "{": "AE", "V": "AH", "@": "AH", "6": "AH",
@@ -126,14 +113,6 @@ SAMPA = {
     "N": "NG", "p": "P", "r": "R", "r\\": "R", "s": "S", "S": "SH", "t": "T",
     "T": "TH", "v": "V", "w": "W", "j": "Y", "z": "Z", "Z": "ZH", "?": "T",
 }
-
-_DROP_MARKS = set("ˈˌːˑ̯̩̥̃̆̊ʰʲʷ.")
-
-
-def _clean_ipa(label: str) -> str:
-    label = unicodedata.normalize("NFD", label)
-    kept = "".join(ch for ch in label if ch not in _DROP_MARKS)
-    return unicodedata.normalize("NFC", kept)
 
 
 def _greedy(label: str, table: dict[str, str]) -> list[str] | None:
@@ -160,7 +139,8 @@ def to_arpabet(label: str, phoneset: str = "auto") -> list[str]:
     that no table explains raises :class:`UnknownLabelError`.
     """
     raw = label.strip()
-    if raw.upper() in _SILENCE_LABELS:
+    # Lower-case "x" is the IPA velar fricative; upper-case "X" is Rhubarb's rest.
+    if raw.upper() in _SILENCE_LABELS and raw != "x":
         return [SILENCE]
     tries = {"arpabet": ("arpabet",), "ipa": ("ipa",), "sampa": ("sampa",),
              "auto": ("arpabet", "sampa", "ipa")}.get(phoneset)
@@ -183,7 +163,8 @@ def to_arpabet(label: str, phoneset: str = "auto") -> list[str]:
                 if got:
                     return got
         else:
-            got = _greedy(_clean_ipa(raw), IPA)
-            if got:
-                return got
+            try:
+                return ipa.to_arpabet(raw)
+            except ipa.UnknownSymbol as exc:
+                raise UnknownLabelError(label, phoneset, symbol=exc.symbol) from None
     raise UnknownLabelError(label, phoneset)

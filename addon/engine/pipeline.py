@@ -18,7 +18,7 @@ import numpy as np
 
 from . import audio as audio_mod
 from . import arousal as arousal_mod
-from . import coarticulation, emotion_track, presets, prosody, visemes, weights
+from . import coarticulation, emotion_track, pauses, presets, prosody, visemes, weights
 from .align import AlignSettings, Alignment, align, check_transcript_matches
 from .audio import Audio
 from .errors import AlignmentError, AudioError, LipSyncError
@@ -226,6 +226,7 @@ def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats
         rest_i, rest_w = rest_target(vset, preset)
         out = coarticulation.dominance(events, times, n_v, preset, alignment.duration, rest_i, rest_w)
     out = coarticulation.smooth(out, fps, preset["smoothing"])
+    out = pauses.force_rest(out, times, [(p.start, p.end) for p in alignment.phones], alignment.duration)
     out = coarticulation.enforce_closures(out, times, events, preset["closure"]["strength"])
     out = np.clip(out * preset["gain"], 0.0, 1.0)
     return w, times, out

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import coarticulation, prosody
+from .. import coarticulation, pauses, prosody
 from ..align import Alignment
 from ..audio import Audio
 from ..errors import LipSyncError
@@ -55,7 +55,10 @@ class Prepared:
     raw_t: np.ndarray = None     # the measured tracks as given (channels in fit order)
     raw_y: np.ndarray = None
     closure: np.ndarray = None   # (frames,) True inside /p b m/
-    closures: list = None        # the engine's closure step: (lo, hi, viseme, weight, envelope)
+    closures: list = None        # the engine's closure step: (lo, hi, viseme, weight, suppress, raise)
+    rest: np.ndarray = None      # (frames,) 0 where a pause forces the rest pose (pauses.rest_envelope)
+    caps: dict = None            # closure viseme -> (vowel frames, most it may show): closure_caps
+    duration: float = None       # s, the span the model frames cover
 
     def aligned(self, delay: float) -> np.ndarray:
         """The measured tracks on the model frames, read ``delay`` s later
@@ -67,11 +70,19 @@ class Prepared:
 
 
 def _closures(events, times: np.ndarray) -> list:
+    """The engine's closure step per /p b m f v/ (:func:`..coarticulation.enforce_closures`):
+    frames [lo, hi), the viseme, its weight, how strongly the other visemes
+    are suppressed on each frame and how far the viseme is raised there."""
     out = []
     for ev in events:
         if ev.cls in coarticulation.CLOSURE_CLASSES and len(times):
-            lo, hi, env = coarticulation._envelope(times, ev, 0.03)
-            out.append((int(lo), int(hi), ev.viseme, float(ev.weight), env))
+            lo1, hi1, suppress = coarticulation._envelope(times, ev, 0.03, approach=1.0, margin=0.0)
+            lo2, hi2, raise_ = coarticulation._envelope(times, ev, 0.03)
+            lo, hi = min(lo1, lo2), max(hi1, hi2)
+            s, r = np.zeros(hi - lo), np.zeros(hi - lo)
+            s[lo1 - lo:hi1 - lo] = suppress
+            r[lo2 - lo:hi2 - lo] = raise_
+            out.append((int(lo), int(hi), ev.viseme, float(ev.weight), s, r))
     return out
 
 
@@ -104,10 +115,14 @@ def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[s
     for i, s in enumerate(segs):
         if s.viseme >= 0:
             targets[i, s.viseme] = s.weight
+    cfg = pauses.settings()["rest"]
+    rest = pauses.rest_envelope(times, pauses.gaps([(p.start, p.end) for p in al.phones], duration,
+                                                   cfg["min_pause"]), cfg["ramp"], duration)
     return Prepared(clip.name, times, y, np.array([s.centre for s in segs]),
-                     preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
-                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats,
-                    np.asarray(clip.times, float), raw_y, closure, _closures(events, times))
+                    preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
+                    np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats,
+                    np.asarray(clip.times, float), raw_y, closure, _closures(events, times), rest,
+                    coarticulation.closure_caps(times, events), duration)
 
 
 

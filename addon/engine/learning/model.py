@@ -42,9 +42,14 @@ class Model:
             D = par[:, 0:1] * np.exp(-rate * dc)
             S = np.maximum(D.sum(axis=0), 1e-300)
             C = (D.T @ c.targets) / S[:, None]
-            Cs = K @ C
+            Cs = (K @ C) * c.rest[:, None]
             masks = _closure_masks(Cs, c.closures, self.strength)
-            out.append(_apply(Cs, masks, True))
+            Cs = _apply(Cs, masks, True)
+            capped = []   # (frames, viseme) held at a closure cap: no derivative there
+            for v, (frames, cap) in (c.caps or {}).items():
+                capped.append((frames[Cs[frames, v] > cap], v))
+                Cs[frames, v] = np.minimum(Cs[frames, v], cap)
+            out.append(Cs)
             if not want_jac:
                 continue
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -59,8 +64,11 @@ class Model:
                 if m.any():
                     g = G[p][m]
                     R[:, i, :] = (g.T @ c.targets[m] - C * g.sum(axis=0)[:, None]) / S[:, None]
-            R = (K @ R.reshape(len(c.times), -1)).reshape(R.shape)
-            jacs.append(_apply(R, masks, False))
+            R = (K @ R.reshape(len(c.times), -1)).reshape(R.shape) * c.rest[:, None, None]
+            R = _apply(R, masks, False)
+            for frames, v in capped:
+                R[frames, :, v] = 0.0
+            jacs.append(R)
         return out, jacs
 
 
@@ -72,10 +80,10 @@ def _closure_masks(C: np.ndarray, closures, strength: float):
     if not closures or strength <= 0:
         return masks
     cur = C.copy()
-    for lo, hi, v, w, env in closures:
-        scale = 1.0 - strength * env
+    for lo, hi, v, w, suppress, raise_ in closures:
+        scale = 1.0 - strength * suppress
         own = cur[lo:hi, v].copy()
-        floor = w * env
+        floor = w * raise_
         keep = own >= floor
         cur[lo:hi] *= scale[:, None]
         cur[lo:hi, v] = np.where(keep, own, floor)
@@ -121,7 +129,10 @@ def viseme_curves(clip: Prepared, preset: dict, vset, fps: float) -> np.ndarray:
     from ..pipeline import curves
 
     al = copy.copy(clip.alignment)
-    al.duration = float(clip.times[-1]) if len(clip.times) else al.duration
+    if clip.duration is not None:
+        al.duration = clip.duration
+    elif len(clip.times):
+        al.duration = float(clip.times[-1])
     _w, _times, out = curves(al, clip.pitch, clip.intensity, clip.stats, vset, preset, "dominance", fps)
     res = np.zeros((len(clip.times), out.shape[1]))
     n = min(len(out), len(clip.times))
