@@ -99,13 +99,40 @@ def replace_range(fc, first: float, last: float, frames=None, values=None, linea
     return removed
 
 
+def _hold_to_tolerance(fc, first: int, y: np.ndarray, idx: np.ndarray, tolerance: float,
+                       rounds: int = 8) -> np.ndarray:
+    """Keys of ``fc`` (frames ``first + idx``) such that the curve Blender
+    draws stays within ``tolerance`` of ``y`` on every frame.
+
+    The reduction measures straight lines between kept keys, but new keys
+    are Bezier with automatic clamped handles: next to a hold (a closure's
+    plateau, a peak) the handles are flat and the curve bulges past the
+    line.  The F-curve itself is evaluated, and the worst frame of every
+    span that strays too far becomes a key, until none does."""
+    frames = np.arange(len(y))
+    for _ in range(rounds):
+        err = np.abs(np.fromiter((fc.evaluate(first + f) for f in frames), float, len(y)) - y)
+        bad = np.flatnonzero(err > tolerance)
+        if not len(bad):
+            break
+        span = np.searchsorted(idx, bad, side="right") - 1
+        worst = {}
+        for f, s in zip(bad, span):
+            if s not in worst or err[f] > err[worst[s]]:
+                worst[s] = f
+        idx = np.union1d(idx, list(worst.values()))
+        replace_range(fc, first, first + len(y) - 1, first + idx, y[idx])
+    return idx
+
+
 def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tolerance: float = 0.0,
           label: str = "") -> dict:
     """Key ``values`` (frames x shape keys) on ``obj`` from ``first_frame``.
 
     With ``tolerance`` 0 every frame gets a linear key (exact, and no Bezier
     overshoot past 0 or 1); otherwise :func:`..engine.keys.reduce` keeps the
-    keys needed and Blender's default Bezier keys smooth between them.
+    keys needed and Blender's default Bezier keys smooth between them, held
+    within ``tolerance`` by :func:`_hold_to_tolerance`.
     Returns counts: keys written, keys replaced, F-curves created.
     """
     key = obj.data.shape_keys
@@ -122,6 +149,8 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
         fc = compat.ensure_fcurve(key, path, f"{obj.name}_LipSync", GROUP)
         idx = key_reduction.reduce(values[:, j], tolerance)
         replaced += replace_range(fc, first_frame, last, first_frame + idx, values[idx, j], linear=tolerance <= 0)
+        if tolerance > 0:
+            idx = _hold_to_tolerance(fc, first_frame, values[:, j], idx, tolerance)
         written += len(idx)
         spans = rec["ranges"].setdefault(name, [])
         if [first_frame, last] not in spans:

@@ -243,9 +243,9 @@ def test_key_reduction_stays_within_tolerance(scene):
         total_full += len(frames)
         total_reduced += len(fc.keyframe_points)
         evaluated = np.array([fc.evaluate(f) for f in frames])
-        # Bezier handles between the kept keys may bend a little past the
-        # straight line the tolerance is measured on.
-        assert np.abs(evaluated - values).max() <= 0.03 + 0.05, k
+        # The curve Blender draws (Bezier between the kept keys), not only
+        # straight lines between them, stays within the tolerance.
+        assert np.abs(evaluated - values).max() <= 0.03 + 1e-6, k
     assert total_reduced < 0.5 * total_full
 
 
