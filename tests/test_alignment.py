@@ -169,7 +169,7 @@ def test_long_clip_aligned_as_two_halves_matches_one_pass(tmp_path):
 
 
 def test_chunked_fallback_when_the_one_pass_fails(tmp_path, monkeypatch):
-    from addon.engine import align as align_mod
+    from addon.engine.alignment import core as align_mod
 
     path, text = _two_lines(tmp_path)
     one = align_file(path, text)
