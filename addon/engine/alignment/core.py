@@ -12,6 +12,7 @@ from .estimate import _clean, _estimate
 from .halves import _align_halves
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
+from .stream import align_stream
 from .speech import _speech_spans, frame_levels, speech_mask, unspoken_speech
 
 
@@ -66,7 +67,10 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
                          f"{len(todo)} word(s) placed by estimate")
 
     done = False
-    pool = _pool(settings) if audio.duration > settings.split_above else None
+    if audio.duration > settings.stream_above:
+        align_stream(audio, prons, mask, settings, place, progress)
+        done = True
+    pool = _pool(settings) if not done and audio.duration > settings.split_above else None
     if pool is not None:
         done = _align_halves(audio, prons, settings, pool, place)
     if not done:
