@@ -93,6 +93,13 @@ def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.n
         return np.zeros(0, np.float32)
     if n <= 2 * _BLOCK or float(rate) != int(rate):
         return _resample_whole(samples, rate, target).astype(np.float32)
+    return resample_blocks(lambda a, b: samples[a:b], n, int(rate), target)
+
+
+def resample_blocks(read, n: int, rate: int, target: int = MODEL_RATE) -> np.ndarray:
+    """:func:`resample` of a long signal of ``n`` samples at an integer
+    rate, read block by block: ``read(a, b)`` returns samples a..b as
+    float64 (a file can be read a piece at a time)."""
     g = math.gcd(int(rate), target)
     down, up = int(rate) // g, target // g        # 441 input samples -> 160 output samples
     step = down * max(1, _BLOCK // down)
@@ -101,7 +108,7 @@ def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.n
     out = np.empty(n_out, np.float32)
     for start in range(0, n, step):
         a, b = max(0, start - margin), min(n, start + step + margin)
-        y = _resample_whole(samples[a:b], rate, target)
+        y = _resample_whole(read(a, b), rate, target)
         o0 = start // down * up
         take = min(step // down * up, n_out - o0)
         off = (start - a) // down * up
@@ -143,6 +150,11 @@ def load(path: str | os.PathLike) -> Audio:
         if head.startswith(magic) or (magic == b"ftyp" and head[4:8] == magic):
             raise AudioError(f"cannot read audio file {path}: it is {kind}, which this reader does not decode; "
                              "convert it to WAV or FLAC (in Blender, a sound strip of it works)")
+    from .wavstream import read_long_wav
+
+    long_wav = read_long_wav(path)
+    if long_wav is not None:
+        return long_wav
     import parselmouth
 
     try:

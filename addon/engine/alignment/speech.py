@@ -12,14 +12,26 @@ from ..audio import Audio
 from .model import FRAME, AlignedWord
 
 
+#: Frames of levels and voice activity computed at once (a minute): long
+#: clips go block by block, so no copy of the whole clip is made.
+_BLOCK_FRAMES = 6000
+
+
 def frame_levels(audio: Audio, hop: float = FRAME) -> np.ndarray:
     """RMS level in dBFS of consecutive 25 ms windows every ``hop`` seconds."""
     step = int(round(hop * audio.rate))
     win = int(round(0.025 * audio.rate))
-    x = audio.samples.astype(np.float64)
-    n = max(1, (len(x) - win) // step + 1) if len(x) >= win else 1
-    power = np.convolve(x * x, np.ones(win) / win, mode="full")[win - 1 :: step][:n] if len(x) >= win \
-        else np.array([np.mean(x * x) if len(x) else 0.0])
+    samples = audio.samples
+    if len(samples) < win:
+        x = samples.astype(np.float64)
+        return 10.0 * np.log10(np.array([np.mean(x * x) if len(x) else 0.0]) + 1e-12)
+    n = (len(samples) - win) // step + 1
+    kernel = np.ones(win) / win
+    power = np.empty(n)
+    for k0 in range(0, n, _BLOCK_FRAMES):
+        k1 = min(n, k0 + _BLOCK_FRAMES)
+        x = samples[k0 * step:(k1 - 1) * step + win].astype(np.float64)
+        power[k0:k1] = np.convolve(x * x, kernel, mode="full")[win - 1::step][:k1 - k0]
     return 10.0 * np.log10(power + 1e-12)
 
 
@@ -41,10 +53,15 @@ def speech_mask(levels: np.ndarray, audio: Audio | None = None) -> tuple[np.ndar
         import pocketsphinx
 
         vad = pocketsphinx.Vad(pocketsphinx.Vad.LOOSE, audio.rate, FRAME)
-        pcm = audio.pcm16()
         fb = vad.frame_bytes
-        voiced = np.fromiter((vad.is_speech(pcm[k:k + fb]) for k in range(0, len(pcm) - fb + 1, fb)),
-                             bool)
+        per_block = fb // 2 * _BLOCK_FRAMES  # samples
+        voiced = []
+        for a in range(0, len(audio.samples), per_block):
+            clip = np.clip(audio.samples[a:a + per_block], -1.0, 1.0)
+            pcm = (clip * 32767.0).astype("<i2").tobytes()
+            voiced.append(np.fromiter((vad.is_speech(pcm[k:k + fb]) for k in range(0, len(pcm) - fb + 1, fb)),
+                                      bool))
+        voiced = np.concatenate(voiced) if voiced else np.zeros(0, bool)
         n = min(len(voiced), len(mask))
         mask[:n] |= voiced[:n]
     # Close gaps shorter than 80 ms (stop closures).  Short blips are kept:
