@@ -215,3 +215,8 @@ def test_long_clip_aligned_window_by_window_matches_one_pass(tmp_path, monkeypat
     assert all(a.end <= b.start + 1e-9 for a, b in zip(al.words, al.words[1:]))
     err = np.abs(np.array([w.start for w in al.words]) - np.array([w.start for w in one.words]))
     assert np.median(err) <= 0.011 and np.mean(err <= 0.05) >= 0.9
+    # The two sides walked in two worker processes (where fork is available)
+    # give the same alignment.
+    monkeypatch.setattr(stream, "_walk", walk)
+    two = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=5.0, window=6.0, workers=2))
+    assert [(p.phone, p.start, p.end) for p in two.phones] == [(p.phone, p.start, p.end) for p in al.phones]

@@ -29,6 +29,8 @@ memory stays bounded whatever the length, and time grows with the length.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..audio import Audio
@@ -169,12 +171,13 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
     return placed, (lo if side == "head" else hi), t
 
 
-#: The clip being aligned, for the forked workers.
+#: The clips being aligned, for the forked workers, by a key of their own.
 _SHARED: dict = {}
+_KEYS = itertools.count()
 
 
-def _walk_shared(side: str, start: float, stop: float, rate: float, settings: AlignSettings):
-    audio, prons, mask = _SHARED["clip"]
+def _walk_shared(key: int, side: str, start: float, stop: float, rate: float, settings: AlignSettings):
+    audio, prons, mask = _SHARED[key]
     return _walk(side, audio, prons, mask, start, stop, rate, settings)
 
 
@@ -213,17 +216,18 @@ def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, setting
     middle = (start + stop) / 2
     # The worker processes are forked with the clip in memory: they read it
     # from there (shared with this process) rather than receive a copy.
-    _SHARED["clip"] = (audio, prons, mask)
+    key = next(_KEYS)
+    _SHARED[key] = (audio, prons, mask)
     pool = _pool(settings)
     runner = pool or _Inline()
     try:
-        fut_h = runner.submit(_walk_shared, "head", start, middle, rate, settings)
-        fut_t = runner.submit(_walk_shared, "tail", middle, stop, rate, settings)
+        fut_h = runner.submit(_walk_shared, key, "head", start, middle, rate, settings)
+        fut_t = runner.submit(_walk_shared, key, "tail", middle, stop, rate, settings)
         heads, lo, ta = fut_h.result()
         tails, hi, tb = fut_t.result()
     finally:
         runner.shutdown()
-        _SHARED.clear()
+        del _SHARED[key]
     if progress:
         progress(0.6)
     # The two sides walked apart, each on its own count of words: should
