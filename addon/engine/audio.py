@@ -85,15 +85,18 @@ def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.n
     and wrap-around at the ends.  Long signals at an integer rate go block by
     block, each block cut on a sample both rates share, with overlapping
     margins thrown away: the same result, several times faster."""
-    samples = np.asarray(samples, dtype=np.float64)
+    samples = np.asarray(samples)
+    if samples.dtype != np.float32:
+        samples = samples.astype(np.float64)
     if int(round(rate)) == target:
         return samples.astype(np.float32)
     n = len(samples)
     if n == 0:
         return np.zeros(0, np.float32)
     if n <= 2 * _BLOCK or float(rate) != int(rate):
-        return _resample_whole(samples, rate, target).astype(np.float32)
-    return resample_blocks(lambda a, b: samples[a:b], n, int(rate), target)
+        return _resample_whole(samples.astype(np.float64), rate, target).astype(np.float32)
+    # Converted to 64 bits a block at a time: no 64-bit copy of a long signal.
+    return resample_blocks(lambda a, b: samples[a:b].astype(np.float64), n, int(rate), target)
 
 
 def resample_blocks(read, n: int, rate: int, target: int = MODEL_RATE) -> np.ndarray:
