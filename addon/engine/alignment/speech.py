@@ -139,8 +139,8 @@ def unspoken_speech(mask: np.ndarray, words: list[AlignedWord], margin: float = 
     transcript that lacks part of what is said.  (seconds, first, last)."""
     t = np.arange(len(mask)) * FRAME
     covered = np.zeros(len(mask), bool)
-    for w in words:
-        covered |= (t >= w.start - margin) & (t <= w.end + margin)
+    for w in words:  # the frames with w.start - margin <= t <= w.end + margin
+        covered[np.searchsorted(t, w.start - margin, "left"):np.searchsorted(t, w.end + margin, "right")] = True
     extra = mask & ~covered
     seconds = float(extra.sum()) * FRAME
     if seconds <= 0.5 or seconds <= 0.25 * float(mask.sum()) * FRAME:
