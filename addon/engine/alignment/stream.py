@@ -34,7 +34,7 @@ import itertools
 import numpy as np
 
 from ..audio import Audio
-from .chunks import _run_middle
+from .chunks import _cover_speech, _run_middle
 from .decoding import _decode, _decoder
 from .model import FRAME, AlignSettings
 from .parallel import _Inline, _pool
@@ -45,6 +45,10 @@ _TRIES = 2
 #: the window if less), where the audio is cut in mid-speech, are not
 #: trusted: the cut is looked for before them.
 _END_GUARD = 2.0
+#: A silence this long (s) near the middle of a clip is where the two sides meet.
+_LONG_SILENCE = 2.0
+#: Speech (s) after a window's last word that still lets it be its last.
+_TRAILING = 0.35
 #: The cut between the words kept and those decoded again lies this far
 #: into the window or further.
 _FAR = 0.5
@@ -67,6 +71,13 @@ def _cut(frames: list[tuple[int, int]], side: str, wmask: np.ndarray, guard: int
     when speech follows it at once: the decoder may have stretched the gap
     over words it had no candidates left for).  None if there is no gap."""
     n, size = len(frames), len(wmask)
+    # Silence at the window's far end and less than :data:`_TRAILING` of
+    # speech (by the generous mask) after the words found: they are all the
+    # window holds, and the cut goes in that silence.
+    if side == "head" and float(wmask[frames[-1][1]:].sum()) * FRAME < _TRAILING and not wmask[-guard:].any():
+        return n, size - guard // 2
+    if side == "tail" and float(wmask[:frames[0][0]].sum()) * FRAME < _TRAILING and not wmask[:guard].any():
+        return n, guard // 2
     for far in (_FAR, 0.25):
         best = None
         for i in range(n - 1):
@@ -120,9 +131,34 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
     t = start if side == "head" else stop
     W = settings.window
     guard = int(round(min(_END_GUARD, 0.15 * W) / FRAME))
-    while (stop - t if side == "head" else t - start) > W and hi - lo > 1:
+    while hi - lo > 1:
+        # A window begins (head) or ends (tail) where the speech does: a
+        # long silence is stepped over, not offered words it cannot hold.
+        if side == "head":
+            k0, k1 = int(t / FRAME), int(stop / FRAME)
+            voiced = np.flatnonzero(mask[k0:k1])
+            if len(voiced) == 0:
+                break
+            t = max(t, (k0 + voiced[0]) * FRAME - settings.margin)
+        else:
+            k0, k1 = int(start / FRAME), int(np.ceil(t / FRAME))
+            voiced = np.flatnonzero(mask[k0:k1])
+            if len(voiced) == 0:
+                break
+            t = min(t, (k0 + voiced[-1] + 1) * FRAME + settings.margin)
+        if (stop - t if side == "head" else t - start) <= W:
+            break
         a, b = (t, t + W) if side == "head" else (t - W, t)
+        # A window whose speech stops (starts, for the tail) at a long
+        # silence ends in that silence: its words are then all it holds.
         fa, fb = int(round(a / FRAME)), int(round(b / FRAME))
+        run = _silent_run(mask[fa:fb][::-1] if side == "head" else mask[fa:fb])
+        if run * FRAME >= _LONG_SILENCE and run < fb - fa:
+            if side == "head":
+                b -= (run * FRAME - 0.5 * _LONG_SILENCE)
+            else:
+                a += (run * FRAME - 0.5 * _LONG_SILENCE)
+            fa, fb = int(round(a / FRAME)), int(round(b / FRAME))
         wmask = mask[fa:fb]
         speech = float(wmask.sum()) * FRAME
         size = int(speech * rate * 1.3) + 8
@@ -137,12 +173,19 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
             window = range(lo, lo + size) if side == "head" else range(hi - size, hi)
             decoder = _decoder([prons[i] for i in window], window[0], settings)
             kind, used, payload = _decode(decoder, pcm, side, [f"w{i}" for i in window], side)
-            del decoder
-            if kind != "failed" and used > 1:
+            if kind != "failed":
                 cut = _cut(_frames(kind, payload), side, wmask, guard)
+                if cut is None:
+                    # The grammar search may stop early and call the speech
+                    # after its last word silence: force more words.
+                    kind, used, payload = _cover_speech(decoder, pcm, wmask, side, kind, used, payload,
+                                                        0, size, window[0])
+                    cut = _cut(_frames(kind, payload), side, wmask, guard)
                 if cut is not None:
                     got = (kind, used, payload, cut)
+                    del decoder
                     break
+            del decoder
             size *= 2
         if got is None:
             # Placed by estimate: the words the window's speech holds at the
@@ -202,6 +245,29 @@ def _estimate_cut(wmask: np.ndarray, side: str) -> int:
     return best[1]
 
 
+def _meeting(mask: np.ndarray, start: float, stop: float) -> tuple[float, float]:
+    """Where the head's walk stops and the tail's begins: the middle of the
+    clip, or, when a silence of :data:`_LONG_SILENCE` or more lies in its
+    middle third, that silence's edges (the two sides then meet in it and
+    each walk ends on complete speech)."""
+    middle = (start + stop) / 2
+    a, b = int((start + (stop - start) / 3) / FRAME), int((stop - (stop - start) / 3) / FRAME)
+    best, i = None, a
+    while i < b:
+        if not mask[i]:
+            j = i
+            while j < len(mask) and not mask[j]:
+                j += 1
+            if (j - i) * FRAME >= _LONG_SILENCE and (best is None or j - i > best[1] - best[0]):
+                best = (i, j)
+            i = j
+        else:
+            i += 1
+    if best is None:
+        return middle, middle
+    return best[0] * FRAME, best[1] * FRAME
+
+
 def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, settings: AlignSettings,
                  place, progress) -> None:
     """Align a long clip window by window (see the module's docstring),
@@ -213,7 +279,7 @@ def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, setting
     stop = min(audio.duration, (idx[-1] + 1) * FRAME + settings.margin)
     # Words per second of speech, over the whole clip.
     rate = n / max(FRAME, float(mask.sum()) * FRAME)
-    middle = (start + stop) / 2
+    head_stop, tail_start = _meeting(mask, start, stop)
     # The worker processes are forked with the clip in memory: they read it
     # from there (shared with this process) rather than receive a copy.
     key = next(_KEYS)
@@ -221,8 +287,8 @@ def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, setting
     pool = _pool(settings)
     runner = pool or _Inline()
     try:
-        fut_h = runner.submit(_walk_shared, key, "head", start, middle, rate, settings)
-        fut_t = runner.submit(_walk_shared, key, "tail", middle, stop, rate, settings)
+        fut_h = runner.submit(_walk_shared, key, "head", start, head_stop, rate, settings)
+        fut_t = runner.submit(_walk_shared, key, "tail", tail_start, stop, rate, settings)
         heads, lo, ta = fut_h.result()
         tails, hi, tb = fut_t.result()
     finally:
