@@ -16,7 +16,7 @@ speech poorly.  This module therefore:
    aligned at once, in two processes: a quick forced word pass over the
    whole clip, scoring every second frame only, finds the pause between two
    words nearest the middle, and the cut goes there.  A clip longer than
-   :attr:`AlignSettings.stream_above` (a minute) is aligned window by
+   :attr:`AlignSettings.stream_above` (90 s) is aligned window by
    window instead, so that memory stays bounded (:mod:`.stream`);
 3. checks every pass word by word against the transcript (each word is a
    unique token in a dictionary holding only the clip's words);

@@ -1,4 +1,4 @@
-"""Clips of up to a minute or so: cut in two at the pause nearest the middle
+"""Clips of up to 90 s: cut in two at the pause nearest the middle
 and both halves force-aligned at once."""
 
 from __future__ import annotations

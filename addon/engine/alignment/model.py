@@ -26,7 +26,7 @@ class AlignSettings:
     split_above: float = 30.0    # clips longer than this are aligned as two halves at once, s
     # Clips longer than this are aligned window by window (bounded memory), s;
     # a window holds at most ``window`` seconds of audio.
-    stream_above: float = 60.0
+    stream_above: float = 90.0
     window: float = 20.0
     max_chunk: float = 12.0      # longest chunk of the fallback, s
     min_pause: float = 0.30      # shortest silence the audio may be cut at, s
