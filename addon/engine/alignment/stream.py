@@ -17,14 +17,18 @@ most :attr:`AlignSettings.window` seconds, walked from both ends at once
 * the tail side does the same backwards from the last word, with suffix
   grammars;
 * the words left between the two sides (at most about two windows of
-  audio) are force-aligned as a stretch whose words are known exactly
+  speech, and the long silence they meet in, if there is one near the
+  middle) are force-aligned as a stretch whose words are known exactly
   (:func:`.chunks._run_middle`, which falls back on grammars and estimates).
 
-A window that cannot be decoded, or that offers no gap between words to
-cut at, is tried once more with twice the candidates; if that fails too, the words its speech holds at the
-transcript's speaking rate are placed by estimate and the walk goes on.
+Windows begin where speech does, and one whose speech stops at a long
+silence ends in it.  A window that cannot be decoded, or that offers no gap
+between words to cut at, is tried once more with twice the candidates; if
+that fails too, the words its speech holds at the transcript's speaking
+rate are placed by estimate (marked, with a note) and the walk goes on.
 Each decode holds at most one window of audio and its candidate words, so
-memory stays bounded whatever the length, and time grows with the length.
+the aligner's memory stays bounded whatever the length, and its time grows
+in proportion to the length.
 """
 
 from __future__ import annotations
