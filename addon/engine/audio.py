@@ -103,20 +103,38 @@ def resample_blocks(read, n: int, rate: int, target: int = MODEL_RATE) -> np.nda
     """:func:`resample` of a long signal of ``n`` samples at an integer
     rate, read block by block: ``read(a, b)`` returns samples a..b as
     float64 (a file can be read a piece at a time)."""
-    g = math.gcd(int(rate), target)
-    down, up = int(rate) // g, target // g        # 441 input samples -> 160 output samples
-    step = down * max(1, _BLOCK // down)
-    margin = down * -(-_MARGIN // down)
-    n_out = int(round(n * target / rate))
-    out = np.empty(n_out, np.float32)
-    for start in range(0, n, step):
-        a, b = max(0, start - margin), min(n, start + step + margin)
-        y = _resample_whole(read(a, b), rate, target)
-        o0 = start // down * up
-        take = min(step // down * up, n_out - o0)
-        off = (start - a) // down * up
-        out[o0:o0 + take] = y[off:off + take]
+    blocks = BlockResampler(read, n, rate, target)
+    out = np.empty(blocks.n_out, np.float32)
+    for j in range(blocks.n_blocks):
+        o0 = j * blocks.per_block
+        y = blocks.block(j)
+        out[o0:o0 + len(y)] = y
     return out
+
+
+class BlockResampler:
+    """The blocks :func:`resample` cuts a long signal at an integer rate
+    into: block ``j`` of the output (``per_block`` samples, the last one
+    shorter) from the input samples ``read(a, b)`` returns (float64)."""
+
+    def __init__(self, read, n: int, rate: int, target: int = MODEL_RATE):
+        g = math.gcd(int(rate), target)
+        self.read, self.n, self.rate, self.target = read, n, int(rate), target
+        self.down, self.up = int(rate) // g, target // g     # 441 input samples -> 160 output samples
+        self.step = self.down * max(1, _BLOCK // self.down)
+        self.margin = self.down * -(-_MARGIN // self.down)
+        self.n_out = int(round(n * target / rate))
+        self.per_block = self.step // self.down * self.up
+        self.n_blocks = -(-n // self.step)
+
+    def block(self, j: int) -> np.ndarray:
+        start = j * self.step
+        a, b = max(0, start - self.margin), min(self.n, start + self.step + self.margin)
+        y = _resample_whole(self.read(a, b), self.rate, self.target)
+        o0 = start // self.down * self.up
+        take = min(self.per_block, self.n_out - o0)
+        off = (start - a) // self.down * self.up
+        return y[off:off + take].astype(np.float32)
 
 
 def from_samples(samples: np.ndarray, rate: float) -> Audio:
