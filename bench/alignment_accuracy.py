@@ -12,6 +12,8 @@ a start 40 ms from the reference must not count as a miss because
 The two MFA clips are also joined into one ~52 s clip (acoustic, then cold)
 and scored against their references shifted accordingly: clips that long are
 aligned as two halves at once, a different path from the ~26 s clips.
+Joined twice over (~105 s), they are aligned window by window, the path of
+long recordings.
 
     .venv/bin/python bench/alignment_accuracy.py
 """
@@ -52,11 +54,12 @@ def match(hyp: list[str], ref: list[str]) -> list[tuple[int, int]]:
     return pairs[::-1]
 
 
-def joined_row() -> None:
-    """Both MFA clips as one clip, scored against both references."""
+def joined_row(repeat: int = 1) -> None:
+    """Both MFA clips as one clip (``repeat`` times over), scored against
+    both references."""
     from addon.engine import audio as audio_mod
 
-    clips = [c for c in reference_phones() if c[0].endswith("corpus")]
+    clips = [c for c in reference_phones() if c[0].endswith("corpus")] * repeat
     sounds = [audio_mod.load(c[1]) for c in clips]
     joined = audio_mod.Audio(np.concatenate([s.samples for s in sounds]), sounds[0].rate)
     text = " ".join(c[2] for c in clips)
@@ -69,7 +72,8 @@ def joined_row() -> None:
     dt = time.perf_counter() - t0
     pairs = match([p.phone for p in al.phones], [p[0] for p in ref_phones])
     err = np.round(np.array([abs(al.phones[i].start - ref_phones[j][1]) for i, j in pairs]), 4)
-    print(f"{'mfa joined':18s} {len(ref_phones):6d} {len(pairs):7d} {np.mean(err <= 0.02):7.1%} "
+    name = "mfa joined" + (f" x{repeat}" if repeat > 1 else "")
+    print(f"{name:18s} {len(ref_phones):6d} {len(pairs):7d} {np.mean(err <= 0.02):7.1%} "
           f"{np.mean(err <= 0.04):7.1%} {np.median(err) * 1000:6.1f}ms {al.n_estimated:5d} {dt:5.2f}s")
 
 
@@ -90,6 +94,7 @@ def main() -> None:
         print(f"{name:18s} {len(ref.phones):6d} {len(pairs):7d} {np.mean(err <= 0.02):7.1%} "
               f"{np.mean(err <= 0.04):7.1%} {np.median(err) * 1000:6.1f}ms {al.n_estimated:5d} {dt:5.2f}s")
     joined_row()
+    joined_row(2)
     for g, e in groups.items():
         e = np.array(e)
         print(f"{'[' + g + ']':18s} {'':6s} {len(e):7d} {np.mean(e <= 0.02):7.1%} {np.mean(e <= 0.04):7.1%} "

@@ -169,7 +169,7 @@ def test_long_clip_aligned_as_two_halves_matches_one_pass(tmp_path):
 
 
 def test_chunked_fallback_when_the_one_pass_fails(tmp_path, monkeypatch):
-    from addon.engine import align as align_mod
+    from addon.engine.alignment import core as align_mod
 
     path, text = _two_lines(tmp_path)
     one = align_file(path, text)
@@ -180,3 +180,43 @@ def test_chunked_fallback_when_the_one_pass_fails(tmp_path, monkeypatch):
     err = np.abs(np.array([w.start for w in al.words]) - np.array([w.start for w in one.words]))
     assert np.median(err) <= 0.03
 
+
+
+def test_long_clip_aligned_window_by_window_matches_one_pass(tmp_path, monkeypatch):
+    """Long recordings are aligned in windows of bounded length (bounded
+    memory); small windows on a ~33 s clip take the same code path."""
+    from addon.engine.alignment import stream
+
+    lines = [(SAMPLE / "hello.wav", (SAMPLE / "hello.txt").read_text()),
+             (FIXTURES / "pause.wav", "First part of the line. And the second part after a long pause."),
+             (FIXTURES / "bob_map.wav", (FIXTURES / "bob_map.txt").read_text()),
+             (FIXTURES / "fast_bilabials.wav", (FIXTURES / "fast_bilabials.txt").read_text())] * 2
+    gap = np.zeros(6400, np.float32)
+    samples = np.concatenate([x for path, _ in lines for x in (audio_mod.load(path).samples, gap)])
+    write_wav(tmp_path / "long.wav", samples)
+    text = " ".join(t for _, t in lines)
+    one = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=1e9, split_above=1e9))
+    windows = []
+    walk = stream._walk
+
+    def spy(*args):
+        placed, word, t = walk(*args)
+        windows.extend(placed)
+        return placed, word, t
+
+    monkeypatch.setattr(stream, "_walk", spy)
+    al = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=5.0, window=6.0, workers=1))
+    assert len(windows) >= 4  # the clip was walked in several windows from both ends
+    assert [w.text for w in al.words] == [w.text for w in one.words]
+    assert one.n_estimated == 0 and al.n_estimated == 0
+    starts = [p.start for p in al.phones]
+    assert starts == sorted(starts)
+    assert all(p.end > p.start for p in al.phones)
+    assert all(a.end <= b.start + 1e-9 for a, b in zip(al.words, al.words[1:]))
+    err = np.abs(np.array([w.start for w in al.words]) - np.array([w.start for w in one.words]))
+    assert np.median(err) <= 0.011 and np.mean(err <= 0.05) >= 0.9
+    # The two sides walked in two worker processes (where fork is available)
+    # give the same alignment.
+    monkeypatch.setattr(stream, "_walk", walk)
+    two = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=5.0, window=6.0, workers=2))
+    assert [(p.phone, p.start, p.end) for p in two.phones] == [(p.phone, p.start, p.end) for p in al.phones]

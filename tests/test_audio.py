@@ -36,3 +36,40 @@ def test_speech_band_survives_and_aliases_do_not():
     assert freqs[np.argmax(spec)] == pytest.approx(1000, abs=2)
     alias = spec[np.abs(freqs - 4000) < 20].max()                       # 12 kHz would fold to 4 kHz
     assert alias < 1e-2 * spec.max()
+
+
+@pytest.mark.parametrize("rate,width,channels", [(44100, 2, 2), (16000, 3, 1), (22050, 1, 1)])
+def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width, channels):
+    """A long WAV file is read a block at a time (bounded memory), with the
+    samples Praat's reader gives; a long file cut short is left to Praat,
+    which says so."""
+    import wave
+
+    import parselmouth
+
+    from addon.engine import wavstream
+
+    n = int(rate * (wavstream.LONG + 1))
+    rng = np.random.default_rng(rate)
+    x = np.sin(np.arange(n) * 0.03)[:, None] * rng.uniform(0.1, 0.9, (n, channels))
+    if width == 1:
+        data = (x * 127 + 128).astype(np.uint8).tobytes()
+    elif width == 3:
+        data = (x * 8388607).astype("<i4").view(np.uint8).reshape(-1, 4)[:, :3].tobytes()
+    else:
+        data = (x * 32767).astype("<i2").tobytes()
+    path = tmp_path / "long.wav"
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(channels), w.setsampwidth(width), w.setframerate(rate)
+        w.writeframes(data)
+    streamed = wavstream.read_long_wav(path)
+    assert streamed is not None
+    praat = parselmouth.Sound(str(path))
+    expected = audio.from_samples(praat.values, praat.sampling_frequency).samples
+    assert np.array_equal(audio.load(path).samples, expected)
+    assert np.array_equal(streamed.samples, expected)
+    raw = path.read_bytes()
+    cut = tmp_path / "cut.wav"
+    cut.write_bytes(raw[:len(raw) * 2 // 3])
+    assert wavstream.read_long_wav(cut) is None
+    assert "cut short" in " ".join(audio.load(cut).notes)

@@ -65,3 +65,23 @@ def test_manual_pitch_range():
     assert female.f_min == 165.0 and female.f_mean == 165.0  # clamped into the range
     custom = prosody.clip_stats(tracks, pitch_range=(100, 300))
     assert (custom.f_min, custom.f_max) == (100.0, 300.0)
+
+
+def test_long_clip_prosody_in_pieces_matches_the_whole(monkeypatch):
+    """Long clips are analysed in pieces (bounded memory); pitch and
+    intensity agree with one analysis of the whole clip."""
+    from addon.engine import audio, prosody
+
+    rate = 16000
+    t = np.arange(rate * 21) / rate
+    f0 = 120 + 40 * np.sin(2 * np.pi * t / 7)                   # a gliding voice
+    x = 0.3 * np.sign(np.sin(2 * np.pi * np.cumsum(f0) / rate)) * (np.sin(2 * np.pi * t / 3) > -0.3)
+    snd = audio.Audio(x.astype(np.float32), rate)
+    whole = prosody.analyse(snd)
+    monkeypatch.setattr(prosody, "PIECE", 4.0)
+    pieces = prosody.analyse(snd)
+    assert np.array_equal(pieces.times, whole.times)
+    both = np.isfinite(whole.pitch) & np.isfinite(pieces.pitch)
+    assert np.mean(np.isfinite(whole.pitch) == np.isfinite(pieces.pitch)) > 0.98 and both.mean() > 0.5
+    assert np.median(np.abs(pieces.pitch[both] / whole.pitch[both] - 1)) < 0.01
+    assert np.median(np.abs(pieces.intensity - whole.intensity)) < 0.5

@@ -85,28 +85,56 @@ def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.n
     and wrap-around at the ends.  Long signals at an integer rate go block by
     block, each block cut on a sample both rates share, with overlapping
     margins thrown away: the same result, several times faster."""
-    samples = np.asarray(samples, dtype=np.float64)
+    samples = np.asarray(samples)
+    if samples.dtype != np.float32:
+        samples = samples.astype(np.float64)
     if int(round(rate)) == target:
         return samples.astype(np.float32)
     n = len(samples)
     if n == 0:
         return np.zeros(0, np.float32)
     if n <= 2 * _BLOCK or float(rate) != int(rate):
-        return _resample_whole(samples, rate, target).astype(np.float32)
-    g = math.gcd(int(rate), target)
-    down, up = int(rate) // g, target // g        # 441 input samples -> 160 output samples
-    step = down * max(1, _BLOCK // down)
-    margin = down * -(-_MARGIN // down)
-    n_out = int(round(n * target / rate))
-    out = np.empty(n_out, np.float32)
-    for start in range(0, n, step):
-        a, b = max(0, start - margin), min(n, start + step + margin)
-        y = _resample_whole(samples[a:b], rate, target)
-        o0 = start // down * up
-        take = min(step // down * up, n_out - o0)
-        off = (start - a) // down * up
-        out[o0:o0 + take] = y[off:off + take]
+        return _resample_whole(samples.astype(np.float64), rate, target).astype(np.float32)
+    # Converted to 64 bits a block at a time: no 64-bit copy of a long signal.
+    return resample_blocks(lambda a, b: samples[a:b].astype(np.float64), n, int(rate), target)
+
+
+def resample_blocks(read, n: int, rate: int, target: int = MODEL_RATE) -> np.ndarray:
+    """:func:`resample` of a long signal of ``n`` samples at an integer
+    rate, read block by block: ``read(a, b)`` returns samples a..b as
+    float64 (a file can be read a piece at a time)."""
+    blocks = BlockResampler(read, n, rate, target)
+    out = np.empty(blocks.n_out, np.float32)
+    for j in range(blocks.n_blocks):
+        o0 = j * blocks.per_block
+        y = blocks.block(j)
+        out[o0:o0 + len(y)] = y
     return out
+
+
+class BlockResampler:
+    """The blocks :func:`resample` cuts a long signal at an integer rate
+    into: block ``j`` of the output (``per_block`` samples, the last one
+    shorter) from the input samples ``read(a, b)`` returns (float64)."""
+
+    def __init__(self, read, n: int, rate: int, target: int = MODEL_RATE):
+        g = math.gcd(int(rate), target)
+        self.read, self.n, self.rate, self.target = read, n, int(rate), target
+        self.down, self.up = int(rate) // g, target // g     # 441 input samples -> 160 output samples
+        self.step = self.down * max(1, _BLOCK // self.down)
+        self.margin = self.down * -(-_MARGIN // self.down)
+        self.n_out = int(round(n * target / rate))
+        self.per_block = self.step // self.down * self.up
+        self.n_blocks = -(-n // self.step)
+
+    def block(self, j: int) -> np.ndarray:
+        start = j * self.step
+        a, b = max(0, start - self.margin), min(self.n, start + self.step + self.margin)
+        y = _resample_whole(self.read(a, b), self.rate, self.target)
+        o0 = start // self.down * self.up
+        take = min(self.per_block, self.n_out - o0)
+        off = (start - a) // self.down * self.up
+        return y[off:off + take].astype(np.float32)
 
 
 def from_samples(samples: np.ndarray, rate: float) -> Audio:
@@ -143,6 +171,11 @@ def load(path: str | os.PathLike) -> Audio:
         if head.startswith(magic) or (magic == b"ftyp" and head[4:8] == magic):
             raise AudioError(f"cannot read audio file {path}: it is {kind}, which this reader does not decode; "
                              "convert it to WAV or FLAC (in Blender, a sound strip of it works)")
+    from .wavstream import read_long_wav
+
+    long_wav = read_long_wav(path)
+    if long_wav is not None:
+        return long_wav
     import parselmouth
 
     try:

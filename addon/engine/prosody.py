@@ -31,20 +31,42 @@ class ClipStats:
     voiced: bool            # any voiced frame at all
 
 
+#: Long clips are analysed in pieces of this many seconds (with margins on
+#: both sides, dropped), so Praat never holds a copy of a whole recording.
+PIECE = 60.0
+_PIECE_MARGIN = 1.0
+
+
 def analyse(audio: Audio, pitch_floor: float = 75.0, pitch_ceiling: float = 600.0,
             step: float = 0.01) -> Tracks:
     """Pitch (autocorrelation) and intensity tracks every ``step`` seconds."""
-    import parselmouth
-
-    snd = parselmouth.Sound(audio.samples.astype(np.float64), sampling_frequency=audio.rate)
     if audio.duration < 0.1:
         t = np.arange(0, audio.duration, step) + step / 2
         return Tracks(t, np.full(len(t), np.nan), np.full(len(t), -300.0))
+    times = np.arange(len(audio.samples) // int(audio.rate * step)) * step + step / 2
+    if audio.duration <= PIECE + 2 * _PIECE_MARGIN:
+        p, i = _piece(audio.samples, audio.rate, 0.0, times, pitch_floor, pitch_ceiling, step)
+        return Tracks(times, p, i)
+    p, i = np.empty(len(times)), np.empty(len(times))
+    for t0 in np.arange(0.0, audio.duration, PIECE):
+        sel = (times >= t0) & (times < t0 + PIECE)
+        a = int(max(0.0, t0 - _PIECE_MARGIN) * audio.rate)
+        b = int(min(audio.duration, t0 + PIECE + _PIECE_MARGIN) * audio.rate)
+        p[sel], i[sel] = _piece(audio.samples[a:b], audio.rate, a / audio.rate, times[sel],
+                                pitch_floor, pitch_ceiling, step)
+    return Tracks(times, p, i)
+
+
+def _piece(samples: np.ndarray, rate: float, start: float, times: np.ndarray, pitch_floor: float,
+           pitch_ceiling: float, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pitch and intensity at ``times`` from the samples beginning at ``start`` s."""
+    import parselmouth
+
+    snd = parselmouth.Sound(samples.astype(np.float64), sampling_frequency=rate, start_time=start)
     pitch = snd.to_pitch(time_step=step, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
     f0 = pitch.selected_array["frequency"].astype(float)
     f0[f0 <= 0] = np.nan
     inten = snd.to_intensity(minimum_pitch=100.0, time_step=step, subtract_mean=False)
-    times = np.arange(len(audio.samples) // int(audio.rate * step)) * step + step / 2
     p = np.interp(times, pitch.xs(), f0, left=np.nan, right=np.nan)
     # Linear interpolation of f0 turns a frame next to an unvoiced one into a
     # mean with NaN: keep the nearest frame's voicing instead.
@@ -52,7 +74,7 @@ def analyse(audio: Audio, pitch_floor: float = 75.0, pitch_ceiling: float = 600.
     if nearest is not None:
         p[np.isnan(f0[nearest])] = np.nan
     i = np.interp(times, inten.xs(), inten.values[0]) if inten.values.size else np.full(len(times), -300.0)
-    return Tracks(times, p, i)
+    return p, i
 
 
 def clip_stats(tracks: Tracks, intensity_floor_db: float = 50.0,

@@ -1,0 +1,109 @@
+"""The aligner's entry point: :func:`align`."""
+
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+from ..audio import Audio
+from ..errors import AlignmentError, AudioError, TranscriptError
+from .chunks import _align_chunked
+from .decoding import _whole
+from .estimate import _clean, _estimate
+from .halves import _align_halves
+from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
+from .parallel import _pool
+from .stream import align_stream
+from .speech import _speech_spans, frame_levels, speech_mask, unspoken_speech
+
+
+def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequence[float] | None = None,
+          texts: Sequence[str] | None = None, sources: Sequence[str] | None = None,
+          settings: AlignSettings | None = None,
+          progress: Callable[[float], None] | None = None) -> Alignment:
+    """Align words (each given as its ARPAbet phones) to the audio.
+
+    Every word is placed: words that could not be aligned acoustically are
+    placed by the fallback and marked ``estimated``.  Raises
+    :class:`AudioError` if the audio holds no speech and
+    :class:`TranscriptError` if there are no words.  ``pause_hints`` (the
+    script's punctuation) are accepted for callers' convenience; the cuts are
+    chosen acoustically.
+    """
+    settings = settings or AlignSettings()
+    n = len(words_phones)
+    if n == 0:
+        raise TranscriptError("the transcript has no words to align")
+    texts = list(texts or [f"word{i}" for i in range(n)])
+    sources = list(sources or [""] * n)
+    prons = [list(p) for p in words_phones]
+    if audio.duration < 0.1:
+        raise AudioError(f"the audio is too short to hold speech ({audio.duration:.3f} s; "
+                         "a line needs at least 0.1 s)")
+    levels = frame_levels(audio)
+    mask, _ = speech_mask(levels, audio)
+    if not mask.any():
+        raise AudioError(
+            f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
+            "check that the right sound is selected and that it is not muted")
+    result: list[list[tuple[str, float, float]] | None] = [None] * n
+    est = [False] * n
+    notes: list[str] = []
+
+    def place(kind, payload, wa, wb, t0, t1):
+        if kind == "phones":
+            for k, frames in enumerate(payload):
+                result[wa + k] = [(p, t0 + a * FRAME, t0 + b * FRAME) for p, a, b in frames]
+        elif kind == "words":
+            for k, (a, b) in enumerate(payload):
+                result[wa + k] = _estimate([prons[wa + k]], [(t0 + a * FRAME, t0 + b * FRAME)])[0]
+                est[wa + k] = True
+            notes.append(f"{t0:.2f}-{t1:.2f} s: phone pass failed; word times kept, phones estimated")
+        else:
+            todo = list(range(wa, wb))
+            for wi, ph in zip(todo, _estimate([prons[wi] for wi in todo], _speech_spans(mask, t0, t1))):
+                result[wi] = ph
+                est[wi] = True
+            notes.append(f"{t0:.2f}-{t1:.2f} s: could not be aligned ({payload}); "
+                         f"{len(todo)} word(s) placed by estimate")
+
+    done = False
+    if audio.duration > settings.stream_above:
+        align_stream(audio, prons, mask, settings, place, progress)
+        done = True
+    pool = _pool(settings) if not done and audio.duration > settings.split_above else None
+    if pool is not None:
+        done = _align_halves(audio, prons, settings, pool, place)
+    if not done:
+        kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings)
+        if kind != "failed":
+            place(kind, payload, 0, n, 0.0, audio.duration)
+            done = True
+    if not done:
+        _align_chunked(audio, prons, mask, settings, place, result, progress)
+    if progress:
+        progress(1.0)
+
+    words: list[AlignedWord] = []
+    phones: list[AlignedPhone] = []
+    for wi in range(n):
+        ph = _clean(result[wi])
+        words.append(AlignedWord(texts[wi], ph[0][1], ph[-1][2], prons[wi], sources[wi], est[wi]))
+        for p, a, b in ph:
+            phones.append(AlignedPhone(p, a, b, wi, est[wi]))
+    warnings = []
+    extra = unspoken_speech(mask, words)
+    if extra:
+        seconds, first, last = extra
+        warnings.append(f"{seconds:.1f} s of speech between {first:.2f} s and {last:.2f} s is not covered by "
+                        "the transcript's words: is the transcript complete? (that part stays at rest)")
+    return Alignment(words, phones, audio.duration, warnings + notes, warnings)
+
+
+def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 0.5) -> None:
+    """Raise :class:`AlignmentError` when most of the words could only be
+    placed by estimate: the transcript probably belongs to other audio."""
+    share = alignment.n_estimated / max(1, len(alignment.phones))
+    if share > max_estimated_share and len(alignment.words) > 3:
+        raise AlignmentError(
+            f"{share:.0%} of the phonemes could not be aligned to the audio: "
+            "does the transcript belong to this recording?")

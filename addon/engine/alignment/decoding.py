@@ -1,0 +1,110 @@
+"""pocketsphinx decoding: a dictionary holding only the clip's words (each a
+unique token ``w<i>``), a forced or grammar word pass, then the phone pass,
+each checked word by word against the transcript."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from typing import Sequence
+
+from ..audio import Audio
+from .model import AlignSettings
+
+
+def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, **extra):
+    """A decoder whose dictionary holds only the given words, as tokens w<i>."""
+    import pocketsphinx
+
+    with tempfile.NamedTemporaryFile("w", suffix=".dict", delete=False) as fh:
+        for k, ph in enumerate(prons):
+            fh.write(f"w{first + k} {' '.join(ph)}\n")
+        path = fh.name
+    try:
+        return pocketsphinx.Decoder(
+            lm=None, dict=path, bestpath=False, samprate=16000, loglevel="FATAL",
+            beam=settings.beam, pbeam=settings.pbeam, wbeam=settings.wbeam, silprob=settings.silprob, **extra)
+    finally:
+        os.unlink(path)
+
+
+def _grammar(tokens: list[str], mode: str) -> str:
+    """JSGF for a chunk: "head" takes a non-empty prefix of the tokens,
+    "tail" a non-empty suffix."""
+    if mode == "head":
+        body = tokens[0] + " " + "".join("[ " + t + " " for t in tokens[1:]) + "]" * (len(tokens) - 1)
+    else:
+        rev = tokens[::-1]
+        body = "[ " * (len(rev) - 1) + " ".join(t + " ]" for t in reversed(rev[1:])) + " " + rev[0]
+    return f"#JSGF V1.0;\ngrammar chunk;\npublic <s> = {body};\n"
+
+
+def _decode(decoder, pcm: bytes, search: str, tokens: list[str], mode: str):
+    """One chunk: a first pass (forced text, or a grammar letting the acoustic
+    model choose where the chunk ends), then the phone pass.
+
+    Returns (kind, words used, payload): "phones" with per-word phone frames,
+    "words" with word frames only, or "failed" with the reason.
+    """
+    try:
+        if mode == "all":
+            decoder.set_align_text(" ".join(tokens))
+        else:
+            decoder.add_jsgf_string(search, _grammar(tokens, mode))
+            decoder.activate_search(search)
+        decoder.start_utt()
+        decoder.process_raw(pcm, full_utt=True)
+        decoder.end_utt()
+        segs = [(sg.word, sg.start_frame, sg.end_frame) for sg in (decoder.seg() or [])]
+    except RuntimeError as exc:
+        return ("failed", 0, f"word pass: {exc}")
+    known = set(tokens)
+    found = [sg for sg in segs if sg[0] in known]
+    got = [sg[0] for sg in found]
+    if not got:
+        return ("failed", 0, "no word recognised")
+    expected = {"all": tokens, "head": tokens[:len(got)], "tail": tokens[len(tokens) - len(got):]}[mode]
+    if got != expected:
+        return ("failed", 0, "the word pass did not place every word")
+    word_frames = [(sg[1], sg[2] + 1) for sg in found]
+    phones = _phone_pass(decoder, pcm, got)
+    if phones is None and mode != "all":
+        # The phone pass does not always follow a grammar search: force the
+        # words the grammar found and try once more.
+        try:
+            decoder.set_align_text(" ".join(got))
+            decoder.start_utt()
+            decoder.process_raw(pcm, full_utt=True)
+            decoder.end_utt()
+            phones = _phone_pass(decoder, pcm, got)
+        except RuntimeError:
+            phones = None
+    if phones is None:
+        return ("words", len(got), word_frames)
+    return ("phones", len(got), phones)
+
+
+def _phone_pass(decoder, pcm: bytes, got: list[str]):
+    known = set(got)
+    try:
+        decoder.set_alignment()
+        decoder.start_utt()
+        decoder.process_raw(pcm, full_utt=True)
+        decoder.end_utt()
+        alignment = decoder.get_alignment()
+        if alignment is None:
+            raise RuntimeError("no sub-word alignment")
+        words = [(w.name, [(p.name, p.start, p.start + p.duration) for p in w])
+                 for w in alignment if w.name in known]
+    except RuntimeError:
+        return None
+    if [w[0] for w in words] != got:
+        return None
+    return [w[1] for w in words]
+
+
+def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings):
+    """Forced alignment of words ``first..`` to the audio t0..t1 in one pass."""
+    decoder = _decoder(prons, first, settings)
+    tokens = [f"w{first + i}" for i in range(len(prons))]
+    return _decode(decoder, audio.pcm16(t0, t1), "all", tokens, "all")

@@ -1,0 +1,74 @@
+"""The aligner's settings and results: words and phonemes with their times."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..phonemes import VOWELS
+
+
+FRAME = 0.01  # pocketsphinx's frame period (100 frames per second)
+
+#: Typical duration of a phone, seconds, for estimates and for splitting.
+TYPICAL_DURATION = {"vowel": 0.10, "diphthong": 0.14, "consonant": 0.07}
+
+
+def typical_duration(phone: str) -> float:
+    if phone in {"AW", "AY", "EY", "OW", "OY"}:
+        return TYPICAL_DURATION["diphthong"]
+    return TYPICAL_DURATION["vowel" if phone in VOWELS else "consonant"]
+
+
+@dataclass
+class AlignSettings:
+    """Knobs of the aligner.  The defaults were measured on real speech."""
+
+    split_above: float = 30.0    # clips longer than this are aligned as two halves at once, s
+    # Clips longer than this are aligned window by window (bounded memory), s;
+    # a window holds at most ``window`` seconds of audio.
+    stream_above: float = 90.0
+    window: float = 20.0
+    max_chunk: float = 12.0      # longest chunk of the fallback, s
+    min_pause: float = 0.30      # shortest silence the audio may be cut at, s
+    margin: float = 0.12         # silence kept around each chunk's speech, s
+    beam: float = 1e-200
+    pbeam: float = 1e-200
+    wbeam: float = 1e-200
+    # Chance of a pause between two words.  pocketsphinx's default (0.005)
+    # suits dictation decoded with a language model; in dialogue, pauses,
+    # breaths and hesitations between words are common.
+    silprob: float = 0.1
+    workers: int = 0             # processes; 0 = one per core
+
+
+@dataclass
+class AlignedWord:
+    text: str
+    start: float
+    end: float
+    phones: list[str]
+    source: str = ""             # where the pronunciation came from
+    estimated: bool = False
+
+
+@dataclass
+class AlignedPhone:
+    phone: str
+    start: float
+    end: float
+    word_index: int
+    estimated: bool = False
+
+
+@dataclass
+class Alignment:
+    words: list[AlignedWord]
+    phones: list[AlignedPhone]
+    duration: float
+    notes: list[str] = field(default_factory=list)
+    #: Notes the user must see (words of the transcript left out, ...): also in ``notes``.
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def n_estimated(self) -> int:
+        return sum(p.estimated for p in self.phones)

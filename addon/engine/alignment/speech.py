@@ -1,0 +1,149 @@
+"""Where the speech is: short-time energy and pocketsphinx's voice-activity
+detector give one flag per 10 ms frame; pauses are the silent stretches
+inside the speech."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..audio import Audio
+from .model import FRAME, AlignedWord
+
+
+#: Frames of levels and voice activity computed at once (a minute): long
+#: clips go block by block, so no copy of the whole clip is made.
+_BLOCK_FRAMES = 6000
+
+
+def frame_levels(audio: Audio, hop: float = FRAME) -> np.ndarray:
+    """RMS level in dBFS of consecutive 25 ms windows every ``hop`` seconds."""
+    step = int(round(hop * audio.rate))
+    win = int(round(0.025 * audio.rate))
+    samples = audio.samples
+    if len(samples) < win:
+        x = samples.astype(np.float64)
+        return 10.0 * np.log10(np.array([np.mean(x * x) if len(x) else 0.0]) + 1e-12)
+    n = (len(samples) - win) // step + 1
+    kernel = np.ones(win) / win
+    power = np.empty(n)
+    for k0 in range(0, n, _BLOCK_FRAMES):
+        k1 = min(n, k0 + _BLOCK_FRAMES)
+        x = samples[k0 * step:(k1 - 1) * step + win].astype(np.float64)
+        power[k0:k1] = np.convolve(x * x, kernel, mode="full")[win - 1::step][:k1 - k0]
+    return 10.0 * np.log10(power + 1e-12)
+
+
+def speech_mask(levels: np.ndarray, audio: Audio | None = None) -> tuple[np.ndarray, float]:
+    """Which 10 ms frames may hold speech.  Returns (mask, threshold dB).
+
+    The mask is built to be safe to cut at, not to be tight: a frame counts
+    as speech if pocketsphinx's voice-activity detector (its loosest mode)
+    hears a voice there, or if it is 10 dB above the noise floor.  Quiet,
+    breathy or noisy speech (a speaker with a cold) defeats either test alone.
+    """
+    floor = float(np.percentile(levels, 10))
+    peak = float(np.percentile(levels, 99))
+    if peak < -70.0 or peak - floor < 6.0:
+        return np.zeros(len(levels), bool), peak
+    threshold = floor + 10.0
+    mask = levels > threshold
+    if audio is not None:
+        import pocketsphinx
+
+        vad = pocketsphinx.Vad(pocketsphinx.Vad.LOOSE, audio.rate, FRAME)
+        fb = vad.frame_bytes
+        per_block = fb // 2 * _BLOCK_FRAMES  # samples
+        voiced = []
+        for a in range(0, len(audio.samples), per_block):
+            clip = np.clip(audio.samples[a:a + per_block], -1.0, 1.0)
+            pcm = (clip * 32767.0).astype("<i2").tobytes()
+            voiced.append(np.fromiter((vad.is_speech(pcm[k:k + fb]) for k in range(0, len(pcm) - fb + 1, fb)),
+                                      bool))
+        voiced = np.concatenate(voiced) if voiced else np.zeros(0, bool)
+        n = min(len(voiced), len(mask))
+        mask[:n] |= voiced[:n]
+    # Close gaps shorter than 80 ms (stop closures).  Short blips are kept:
+    # dropping them would put cuts inside quiet speech.
+    return _close_runs(mask, False, 8), threshold
+
+
+def _close_runs(mask: np.ndarray, value: bool, shorter_than: int) -> np.ndarray:
+    out = mask.copy()
+    n = len(mask)
+    i = 0
+    while i < n:
+        if mask[i] == value:
+            j = i
+            while j < n and mask[j] == value:
+                j += 1
+            if 0 < i and j < n and j - i < shorter_than:
+                out[i:j] = not value
+            i = j
+        else:
+            i += 1
+    return out
+
+
+def pauses(mask: np.ndarray, min_pause: float) -> list[tuple[float, float]]:
+    """Silent stretches inside the speech (not before or after it), in seconds."""
+    idx = np.flatnonzero(mask)
+    if len(idx) == 0:
+        return []
+    found = []
+    first, last = idx[0], idx[-1]
+    i = first
+    while i <= last:
+        if not mask[i]:
+            j = i
+            while j <= last and not mask[j]:
+                j += 1
+            if (j - i) * FRAME >= min_pause:
+                found.append((i * FRAME, j * FRAME))
+            i = j
+        else:
+            i += 1
+    return found
+
+
+def _longest_run(mask: np.ndarray) -> int:
+    """Length of the longest run of True."""
+    if not mask.any():
+        return 0
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return int((edges[1::2] - edges[0::2]).max())
+
+
+def _speech_spans(mask: np.ndarray, start: float, end: float) -> list[tuple[float, float]]:
+    a, b = int(start / FRAME), int(math.ceil(end / FRAME))
+    sub = mask[a:b]
+    spans = []
+    i = 0
+    while i < len(sub):
+        if sub[i]:
+            j = i
+            while j < len(sub) and sub[j]:
+                j += 1
+            spans.append(((a + i) * FRAME, (a + j) * FRAME))
+            i = j
+        else:
+            i += 1
+    return spans or [(start, end)]
+
+
+def unspoken_speech(mask: np.ndarray, words: list[AlignedWord], margin: float = 0.2
+                    ) -> tuple[float, float, float] | None:
+    """Speech (``mask``, one flag per :data:`FRAME`) that no word lies on,
+    when there is much of it (over 0.5 s and a quarter of all speech): a
+    transcript that lacks part of what is said.  (seconds, first, last)."""
+    t = np.arange(len(mask)) * FRAME
+    covered = np.zeros(len(mask), bool)
+    for w in words:  # the frames with w.start - margin <= t <= w.end + margin
+        covered[np.searchsorted(t, w.start - margin, "left"):np.searchsorted(t, w.end + margin, "right")] = True
+    extra = mask & ~covered
+    seconds = float(extra.sum()) * FRAME
+    if seconds <= 0.5 or seconds <= 0.25 * float(mask.sum()) * FRAME:
+        return None
+    idx = np.flatnonzero(extra)
+    return seconds, float(t[idx[0]]), float(t[idx[-1]] + FRAME)
