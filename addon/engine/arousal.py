@@ -120,16 +120,18 @@ def frames(audio: Audio, tracks: prosody.Tracks | None = None, speech_db: float 
     """Pitch, intensity and spectral centroid every 10 ms."""
     tracks = tracks if tracks is not None else prosody.analyse(audio, step=STEP)
     n = len(tracks.times)
-    x = np.asarray(audio.samples, dtype=np.float64)
-    win, hop = int(round(0.025 * audio.rate)), int(round(STEP * audio.rate))
+    samples = audio.samples   # an array, or a long WAV file read a stretch at a time
+    win = int(round(0.025 * audio.rate))
     cen = np.full(n, np.nan)
-    if len(x) >= win and n:
-        starts = np.clip((tracks.times * audio.rate).astype(int) - win // 2, 0, len(x) - win)
+    if len(samples) >= win and n:
+        starts = np.clip((tracks.times * audio.rate).astype(int) - win // 2, 0, len(samples) - win)
         fq = np.fft.rfftfreq(win, 1.0 / audio.rate)
         band = (fq >= 50) & (fq <= 5000)
         hann = np.hanning(win)
         for a in range(0, n, 4096):  # in blocks: long recordings stay small in memory
-            seg = x[starts[a:a + 4096, None] + np.arange(win)] * hann
+            st = starts[a:a + 4096]
+            x = np.asarray(samples[int(st[0]):int(st[-1]) + win], dtype=np.float64)
+            seg = x[(st - st[0])[:, None] + np.arange(win)] * hann
             p = (np.abs(np.fft.rfft(seg, axis=1)) ** 2)[:, band]
             tot = p.sum(axis=1)
             ok = tot > 0
