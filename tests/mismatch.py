@@ -88,7 +88,8 @@ def capture(alignment, duration: float, *, delay: float = 0.045, gain=(1.4, 0.7,
     return times, y * np.asarray(gain) + np.asarray(offset) + rng.normal(0.0, noise, y.shape) * np.asarray(gain)
 
 
-def _stretch(snd, al, f):
+def stretch(snd, al, f):
+    """The clip and its alignment played ``f`` times as long."""
     from addon.engine import audio as audio_mod
 
     n = int(len(snd.samples) * f)
@@ -125,7 +126,7 @@ def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, names=None, **
         snd = audio_mod.load(path)
         al = pipeline.align_audio(snd, text)
         for f in rates:
-            s2, a2 = (snd, al) if f == 1.0 else _stretch(snd, al, f)
+            s2, a2 = (snd, al) if f == 1.0 else stretch(snd, al, f)
             times, y = capture(a2, s2.duration, delay=delay, rng=rng, **kw)
             out.append(TrainingClip(f"{name}@{f}", s2, a2, times, y, list(TRACKS)))
     return out

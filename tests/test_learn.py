@@ -29,21 +29,10 @@ from addon.engine.cli import main as cli_main
 from addon.engine.errors import ImportFormatError, LipSyncError, PresetError
 
 from conftest import FIXTURES, SAMPLE
+from mismatch import stretch
 
 SIGMA = 0.01
 CHANNELS = list(capture.ARKIT)
-
-
-def _stretch(snd, al, f):
-    n = int(len(snd.samples) * f)
-    x = np.linspace(0, len(snd.samples) - 1, n)
-    s2 = audio_mod.Audio(np.interp(x, np.arange(len(snd.samples)), snd.samples).astype(np.float32), snd.rate)
-    a2 = copy.deepcopy(al)
-    for item in list(a2.words) + list(a2.phones):
-        item.start *= f
-        item.end *= f
-    a2.duration = al.duration * f
-    return s2, a2
 
 
 def _truth():
@@ -76,7 +65,7 @@ def examples():
         snd = audio_mod.load(path)
         al = pipeline.align_audio(snd, text)
         for f in (0.85, 1.0, 1.2):
-            s2, a2 = (snd, al) if f == 1.0 else _stretch(snd, al, f)
+            s2, a2 = (snd, al) if f == 1.0 else stretch(snd, al, f)
             probe = learn.TrainingClip("probe", s2, a2, np.array([0.0, s2.duration]), np.zeros((2, len(CHANNELS))),
                                        CHANNELS)
             prepared = learn._prepare(probe, vs, truth, 60.0, CHANNELS)

@@ -51,6 +51,14 @@ def _timecode(text: str, fps: float, where: str) -> float:
     return int(h) * 3600 + int(mi) * 60 + int(s) + frames / fps
 
 
+def _time_column(lower: list[str]) -> tuple[int | None, bool]:
+    """The time column among lower-cased header names, and whether it holds
+    timecodes (else seconds); None when there is none."""
+    if "timecode" in lower:
+        return lower.index("timecode"), True
+    return next((lower.index(n) for n in _TIME_SECONDS if n in lower), None), False
+
+
 def read_capture_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(times in s from the first row, values (rows, channels), ARKit channel names)."""
     path = Path(path)
@@ -63,14 +71,10 @@ def read_capture_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, n
         raise ImportFormatError(f"{path}: needs a header row and at least two frames")
     header = [h.strip() for h in rows[0]]
     lower = [h.lower() for h in header]
-    if "timecode" in lower:
-        t_col, is_tc = lower.index("timecode"), True
-    else:
-        t_col = next((lower.index(n) for n in _TIME_SECONDS if n in lower), None)
-        is_tc = False
-        if t_col is None:
-            raise ImportFormatError(f"{path}: no time column (Timecode, or time / seconds in seconds); "
-                                    f"the header is {', '.join(header[:6])}{' ...' if len(header) > 6 else ''}")
+    t_col, is_tc = _time_column(lower)
+    if t_col is None:
+        raise ImportFormatError(f"{path}: no time column (Timecode, or time / seconds in seconds); "
+                                f"the header is {', '.join(header[:6])}{' ...' if len(header) > 6 else ''}")
     cols = [(k, _BY_CANON[canonical(h)]) for k, h in enumerate(header) if canonical(h) in _BY_CANON]
     if not cols:
         raise ImportFormatError(f"{path}: no ARKit blendshape columns (jawOpen, mouthClose, ...)")
@@ -190,11 +194,8 @@ def read_track_csv(path: str | Path, track_map: dict, fps: float = 60.0
         if tname not in header:
             raise ImportFormatError(f"{path}: no time column {tname!r}; the header is {', '.join(header[:8])}")
         t_col, is_tc = header.index(tname), False
-    elif "timecode" in lower:
-        t_col, is_tc = lower.index("timecode"), True
     else:
-        t_col = next((lower.index(n) for n in _TIME_SECONDS if n in lower), None)
-        is_tc = False
+        t_col, is_tc = _time_column(lower)
         if t_col is None:
             raise ImportFormatError(f"{path}: no time column (name it in the track map's \"time\")")
     unit = 0.001 if track_map.get("time_unit") == "ms" else 1.0
