@@ -205,8 +205,13 @@ def test_long_clip_aligned_window_by_window_matches_one_pass(tmp_path, monkeypat
         return placed, word, t
 
     monkeypatch.setattr(stream, "_walk", spy)
-    al = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=5.0, window=6.0, workers=1))
+    reported = []
+    al = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=5.0, window=6.0, workers=1),
+                    progress=reported.append)
     assert len(windows) >= 4  # the clip was walked in several windows from both ends
+    # Progress moves while the windows are walked, never backwards.
+    assert reported == sorted(reported) and reported[-1] == 1.0
+    assert len({round(f, 6) for f in reported if 0 < f < 0.6}) >= 3
     assert [w.text for w in al.words] == [w.text for w in one.words]
     assert one.n_estimated == 0 and al.n_estimated == 0
     starts = [p.start for p in al.phones]

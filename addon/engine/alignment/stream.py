@@ -33,7 +33,9 @@ in proportion to the length.
 
 from __future__ import annotations
 
+import concurrent.futures
 import itertools
+import multiprocessing
 
 import numpy as np
 
@@ -117,8 +119,30 @@ def _silent_run(mask: np.ndarray) -> int:
     return int(speech[0]) if len(speech) else len(mask)
 
 
+#: Share of the alignment's progress reached when both walks are done.
+_WALKS_SHARE = 0.6
+
+
+class _Reach:
+    """How far each side's walk has got (0 to 1): in memory shared with the
+    forked workers (read by polling), or reported at once when the walks run
+    in this process."""
+
+    def __init__(self, forked: bool, progress):
+        self.values = multiprocessing.get_context("fork").Array("d", 2, lock=False) if forked else [0.0, 0.0]
+        self.progress = None if forked else progress
+
+    def set(self, side: str, fraction: float) -> None:
+        self.values[0 if side == "head" else 1] = min(1.0, max(0.0, fraction))
+        if self.progress:
+            self.progress(self.share())
+
+    def share(self) -> float:
+        return _WALKS_SHARE * (self.values[0] + self.values[1]) / 2
+
+
 def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, start: float, stop: float,
-          rate: float, settings: AlignSettings):
+          rate: float, settings: AlignSettings, reach: _Reach | None = None):
     """One side's walk.  The head walks forward from word 0 and time
     ``start`` while more than a window of audio is left before ``stop``; the
     tail walks backward from the last word and time ``stop`` while more than
@@ -136,6 +160,8 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
     W = settings.window
     guard = int(round(min(_END_GUARD, 0.15 * W) / FRAME))
     while hi - lo > 1:
+        if reach is not None:
+            reach.set(side, (t - start if side == "head" else stop - t) / max(stop - start, FRAME))
         # A window begins (head) or ends (tail) where the speech does: a
         # long silence is stepped over, not offered words it cannot hold.
         if side == "head":
@@ -224,8 +250,8 @@ _KEYS = itertools.count()
 
 
 def _walk_shared(key: int, side: str, start: float, stop: float, rate: float, settings: AlignSettings):
-    audio, prons, mask = _SHARED[key]
-    return _walk(side, audio, prons, mask, start, stop, rate, settings)
+    audio, prons, mask, reach = _SHARED[key]
+    return _walk(side, audio, prons, mask, start, stop, rate, settings, reach)
 
 
 def _estimate_cut(wmask: np.ndarray, side: str) -> int:
@@ -287,19 +313,25 @@ def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, setting
     # The worker processes are forked with the clip in memory: they read it
     # from there (shared with this process) rather than receive a copy.
     key = next(_KEYS)
-    _SHARED[key] = (audio, prons, mask)
     pool = _pool(settings)
+    reach = _Reach(pool is not None, progress) if progress else None
+    _SHARED[key] = (audio, prons, mask, reach)
     runner = pool or _Inline()
     try:
         fut_h = runner.submit(_walk_shared, key, "head", start, head_stop, rate, settings)
         fut_t = runner.submit(_walk_shared, key, "tail", tail_start, stop, rate, settings)
+        if pool is not None and reach is not None:
+            pending = {fut_h, fut_t}
+            while pending:
+                _done, pending = concurrent.futures.wait(pending, timeout=0.5)
+                progress(reach.share())
         heads, lo, ta = fut_h.result()
         tails, hi, tb = fut_t.result()
     finally:
         runner.shutdown()
         del _SHARED[key]
     if progress:
-        progress(0.6)
+        progress(_WALKS_SHARE)
     # The two sides walked apart, each on its own count of words: should
     # their words meet or cross, the innermost windows give way.
     while (tails or heads) and lo >= hi:
