@@ -1,25 +1,15 @@
 import json
 import subprocess
 import sys
-import wave
 
 import numpy as np
 import pytest
 
-from conftest import FIXTURES, ROOT, SAMPLE
+from conftest import FIXTURES, ROOT, SAMPLE, write_wav
 from addon.engine import audio as audio_mod
 from addon.engine.align import AlignSettings
 from addon.engine.errors import AlignmentError, AudioError, LipSyncError, TranscriptError
 from addon.engine.pipeline import align_file, analyze
-
-
-def write_wav(path, samples, rate=16000, channels=1):
-    data = (np.clip(samples, -1, 1) * 32767).astype("<i2")
-    with wave.open(str(path), "wb") as w:
-        w.setnchannels(channels)
-        w.setsampwidth(2)
-        w.setframerate(rate)
-        w.writeframes(data.tobytes())
 
 
 def test_every_word_aligned_in_order():

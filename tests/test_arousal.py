@@ -1,13 +1,13 @@
 """Arousal from the voice, and weights that follow it across lines."""
 
 import json
-import wave
 
 import numpy as np
 import pytest
 
 from addon.engine import arousal, cli, presets
 from addon.engine.pipeline import analyze
+from conftest import write_wav
 from voice_synth import voice
 
 
@@ -16,12 +16,8 @@ def lines():
     return {"loud": voice(1.0), "quiet": voice(0.0)}
 
 
-def write_wav(path, snd):
-    with wave.open(str(path), "wb") as w:
-        w.setnchannels(1)
-        w.setsampwidth(2)
-        w.setframerate(snd.rate)
-        w.writeframes((np.clip(snd.samples, -1, 1) * 32767).astype("<i2").tobytes())
+def write_clip(path, snd):
+    write_wav(path, snd.samples, snd.rate)
 
 
 def test_estimate_in_range_with_a_track_and_ranks_effort(lines):
@@ -54,12 +50,12 @@ def test_model_file_checked(tmp_path):
 
 def test_arousal_command(tmp_path, capsys, lines):
     a, b = tmp_path / "loud.wav", tmp_path / "quiet.wav"
-    write_wav(a, lines["loud"][0])
-    write_wav(b, lines["quiet"][0])
+    write_clip(a, lines["loud"][0])
+    write_clip(b, lines["quiet"][0])
     bad = tmp_path / "notes.wav"
     bad.write_text("not audio")
     silent = tmp_path / "silent.wav"
-    write_wav(silent, type(lines["loud"][0])(np.zeros(16000, np.float32), 16000))
+    write_clip(silent, type(lines["loud"][0])(np.zeros(16000, np.float32), 16000))
     rc = cli.main(["arousal", str(a), str(bad), str(silent), str(b)])
     out, err = capsys.readouterr()
     assert rc == 1

@@ -28,7 +28,7 @@ from addon.engine import capture, learn, pipeline, presets, visemes
 from addon.engine.cli import main as cli_main
 from addon.engine.errors import ImportFormatError, LipSyncError, PresetError
 
-from conftest import FIXTURES, SAMPLE
+from conftest import FIXTURES, SAMPLE, write_wav
 from mismatch import stretch
 
 SIGMA = 0.01
@@ -187,15 +187,10 @@ def test_malformed_capture_csv(tmp_path, body, message):
 def test_learn_command_line(examples, tmp_path, capsys):
     """Files on disk: audio, capture CSV and transcript side by side."""
     clips, _ = examples
-    import wave
 
     for c in clips[:3]:
         stem = tmp_path / c.name.replace("@", "_")
-        with wave.open(str(stem.with_suffix(".wav")), "wb") as w:
-            w.setnchannels(1)
-            w.setsampwidth(2)
-            w.setframerate(c.audio.rate)
-            w.writeframes((np.clip(c.audio.samples, -1, 1) * 32767).astype("<i2").tobytes())
+        write_wav(stem.with_suffix(".wav"), c.audio.samples, c.audio.rate)
         rows = ["time," + ",".join(CHANNELS)] + [f"{t:.5f}," + ",".join(f"{v:.4f}" for v in row)
                                                   for t, row in zip(c.times, c.tracks)]
         stem.with_suffix(".csv").write_text("\n".join(rows) + "\n")

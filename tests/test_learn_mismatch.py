@@ -11,7 +11,6 @@ captures exactly, so the margins are modest; the benchmark
 """
 
 import json
-import wave
 
 import numpy as np
 import pytest
@@ -21,6 +20,7 @@ from addon.engine.cli import main as cli_main
 from addon.engine.errors import ImportFormatError
 
 import mismatch
+from conftest import write_wav
 
 DELAY = 0.045
 
@@ -64,11 +64,7 @@ def test_the_start_is_kept_unless_told(captured):
 
 def _write_clip(folder, clip, gain=20.0):
     stem = folder / clip.name.replace("@", "_")
-    with wave.open(str(stem.with_suffix(".wav")), "wb") as w:
-        w.setnchannels(1)
-        w.setsampwidth(2)
-        w.setframerate(clip.audio.rate)
-        w.writeframes((np.clip(clip.audio.samples, -1, 1) * 32767).astype("<i2").tobytes())
+    write_wav(stem.with_suffix(".wav"), clip.audio.samples, clip.audio.rate)
     rows = ["t_ms,JawY_mm,LipGap_mm,Protrusion_mm,Tongue_mm"]
     rows += [f"{1000 * t:.2f}," + ",".join(f"{gain * v:.3f}" for v in row) + ",0.0"
              for t, row in zip(clip.times, clip.tracks)]
