@@ -2,7 +2,8 @@ import pytest
 
 from addon.engine import lts
 from addon.engine.errors import TranscriptError
-from addon.engine.pronounce import Lexicon
+from addon.engine.phonemes import strip_stress
+from addon.engine.pronounce import Lexicon, _SortedDictionary, cmudict_path
 from addon.engine.text import Word, normalize
 
 
@@ -73,3 +74,39 @@ def test_user_dictionary_errors_name_line(tmp_path):
         Lexicon.with_user_file(f)
     with pytest.raises(TranscriptError, match="not found"):
         Lexicon.with_user_file(tmp_path / "missing.dict")
+
+
+def _full_table(path):
+    table = {}
+    for line in open(path, encoding="utf-8").read().splitlines():
+        word, _, phones = line.partition(" ")
+        if "(" not in word:
+            table.setdefault(word, [strip_stress(p) for p in phones.split()])
+    return table
+
+
+def test_cmu_dictionary_looked_up_in_place_matches_reading_it_whole():
+    d = _SortedDictionary(cmudict_path())
+    table = _full_table(cmudict_path())
+    words = sorted(table)
+    sample = words[:: max(1, len(words) // 2000)] + ["a", "the", words[0], words[-1]]
+    assert [d.get(w) for w in sample] == [[table[w]] for w in sample]
+    for missing in ("zzzzzzz", "", "aaaaaaaaa", "naïve"):
+        assert missing not in d and d.get(missing) is None
+
+
+def test_alternates_do_not_shadow_the_main_entry(tmp_path):
+    path = tmp_path / "sorted.dict"
+    path.write_text("a AH\na(2) EY1\na's EY1 Z\nab AE1 B\nab(2) EY1 B IY1\nabc EY1 B IY1 S IY1\n", encoding="utf-8")
+    d = _SortedDictionary(path)
+    assert d.get("a") == [["AH"]] and d.get("a's") == [["EY", "Z"]]
+    assert d.get("ab") == [["AE", "B"]] and d.get("abc") == [["EY", "B", "IY", "S", "IY"]]
+    assert d.get("aa") is None and d.get("abcd") is None
+
+
+def test_an_unsorted_dictionary_is_read_into_a_table(tmp_path):
+    path = tmp_path / "unsorted.dict"
+    words = [f"w{i:03d}" for i in range(200)][::-1]
+    path.write_text("".join(f"{w} M AA1\n" for w in words), encoding="utf-8")
+    d = _SortedDictionary(path)
+    assert all(d.get(w) == [["M", "AA"]] for w in words)
