@@ -20,6 +20,7 @@ from . import audio as audio_mod
 from . import arousal as arousal_mod
 from . import coarticulation, emotion_track, pauses, presets, prosody, visemes, weights
 from .align import AlignSettings, Alignment, align, check_transcript_matches
+from .alignment.parallel import Background
 from .audio import Audio
 from .errors import AlignmentError, AudioError, LipSyncError
 from .importers import read_alignment
@@ -267,6 +268,17 @@ def check_alignment_times(al: Alignment, audio_duration: float) -> None:
                            f"({audio_duration:.3f} s)")
 
 
+def _prosody_beside_alignment(snd: Audio, settings: AlignSettings | None) -> Background | None:
+    """Pitch and intensity computed on the second core while the first one
+    finds where to cut the clip in two, for clips aligned as two halves
+    (:attr:`AlignSettings.split_above` to ``stream_above``); longer ones
+    keep both cores busy aligning, shorter ones are aligned in one pass."""
+    settings = settings or AlignSettings()
+    if not settings.split_above < snd.duration <= settings.stream_above:
+        return None
+    return Background(prosody.analyse, snd, settings=settings)
+
+
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
             viseme_set: str | None = None, emotion: str | dict = "neutral",
@@ -293,6 +305,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             progress(step, frac)
 
     fps = parse_fps(fps)
+    background = None
     preset = presets.resolve(dict(emotion), "preset") if isinstance(emotion, dict) else presets.load(emotion)
     vset = viseme_set_for(preset, viseme_set)
     if coarticulation_model not in MODELS:
@@ -313,8 +326,14 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             raise AudioError(f"{name} is too short to hold speech ({snd.duration:.3f} s; "
                              f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
-        al = align_audio(snd, text, Lexicon.with_user_file(dictionary),
-                         settings, lambda f: report("align", 0.1 + 0.7 * f))
+        lexicon = Lexicon.with_user_file(dictionary)
+        background = _prosody_beside_alignment(snd, settings)
+        try:
+            al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
+        except BaseException:
+            if background is not None:
+                background.close()
+            raise
     elif isinstance(alignment, Alignment):
         al = alignment
         check_alignment_times(al, snd.duration)
@@ -322,7 +341,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         al = read_alignment(alignment, audio_duration=snd.duration)
     al.duration = max(snd.duration, al.duration if alignment is not None else 0.0)
     report("prosody", 0.8)
-    tracks = prosody.analyse(snd)
+    tracks = background.result() if background is not None else prosody.analyse(snd)
     voice = arousal_mod.estimate(snd, tracks, al) if snd.duration >= MIN_SPEECH else None
     changes = [emotion_track.Change(t, lookup(name), name)
                for t, name in emotion_track.tag_times(tags, [w.start for w in al.words], al.duration)]

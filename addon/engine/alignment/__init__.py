@@ -12,9 +12,9 @@ speech poorly.  This module therefore:
    pruning).  A forced alignment holds only the transcript's own words, so
    the search stays small, and it then succeeds on whole clips of a minute;
 2. aligns a clip in one forced pass.  A clip longer than
-   :attr:`AlignSettings.split_above` is cut in two and both halves are
-   aligned at once, in two processes: a quick forced word pass over the
-   whole clip, scoring every second frame only, finds the pause between two
+   :attr:`AlignSettings.split_above` (10 s) is cut in two and both halves
+   are aligned at once, in two processes: a quick forced word pass over the
+   whole clip, scoring every third frame only, finds the pause between two
    words nearest the middle, and the cut goes there.  A clip longer than
    :attr:`AlignSettings.stream_above` (90 s) is aligned window by
    window instead, so that memory stays bounded (:mod:`.stream`);

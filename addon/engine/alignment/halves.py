@@ -1,5 +1,5 @@
-"""Clips of up to 90 s: cut in two at the pause nearest the middle
-and both halves force-aligned at once."""
+"""Clips of 10 to 90 s: cut in two at the pause nearest the middle and both
+halves force-aligned at once, one per core."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ from .model import FRAME, AlignSettings
 def _split_words(audio: Audio, prons: list[list[str]], settings: AlignSettings) -> tuple[int, float] | None:
     """Where to cut a long clip in two, and how many words go before the cut.
 
-    A quick forced word pass over the whole clip (scoring every second frame
-    only) finds the words; the cut goes in the middle of the pause between
+    A quick forced word pass over the whole clip (scoring every third frame
+    only: the cut needs the pauses, not exact boundaries) finds the words; the cut goes in the middle of the pause between
     two words nearest the middle of the speech.  Returns (words before the
     cut, cut time) or None if the pass fails."""
-    decoder = _decoder(prons, 0, settings, ds=2)
+    decoder = _decoder(prons, 0, settings, ds=3)
     tokens = [f"w{i}" for i in range(len(prons))]
     try:
         decoder.set_align_text(" ".join(tokens))

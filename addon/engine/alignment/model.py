@@ -23,7 +23,7 @@ def typical_duration(phone: str) -> float:
 class AlignSettings:
     """Knobs of the aligner.  The defaults were measured on real speech."""
 
-    split_above: float = 30.0    # clips longer than this are aligned as two halves at once, s
+    split_above: float = 10.0    # clips longer than this are aligned as two halves at once (both cores), s
     # Clips longer than this are aligned window by window (bounded memory), s;
     # a window holds at most ``window`` seconds of audio.
     stream_above: float = 90.0

@@ -1,21 +1,28 @@
-"""Two decodes at once, in forked worker processes where that is safe."""
+"""Work on both cores at once, in forked worker processes where that is safe."""
 
 from __future__ import annotations
 
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
+from typing import Callable
 
 from .model import AlignSettings
 
 
-def _pool(settings: AlignSettings):
+def _can_fork(settings: AlignSettings) -> bool:
     import multiprocessing
 
     n = settings.workers or os.cpu_count() or 1
     # fork shares the loaded modules and costs nothing to start; where it is
     # not available (Windows) or unsafe (macOS), everything runs in-process.
-    if n < 2 or "fork" not in multiprocessing.get_all_start_methods() or sys.platform == "darwin":
+    return n >= 2 and "fork" in multiprocessing.get_all_start_methods() and sys.platform != "darwin"
+
+
+def _pool(settings: AlignSettings):
+    import multiprocessing
+
+    if not _can_fork(settings):
         return None
     return ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork"))
 
@@ -35,3 +42,38 @@ class _Inline:
 
     def shutdown(self):
         pass
+
+
+class Background:
+    """``fn(*args)`` computed in a forked process while the caller goes on
+    (the alignment of a clip long enough to be split keeps both cores busy
+    only part of the time).  :meth:`result` returns its value; if the worker
+    could not run it, or it raised, the call is made again in-process, so
+    errors surface exactly as they would without the worker."""
+
+    def __init__(self, fn: Callable, *args, settings: AlignSettings | None = None):
+        import multiprocessing
+
+        self._fn, self._args = fn, args
+        self._pool = self._future = None
+        if _can_fork(settings or AlignSettings()):
+            try:
+                self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+                self._future = self._pool.submit(fn, *args)
+            except (OSError, RuntimeError):
+                self.close()
+
+    def result(self):
+        try:
+            if self._future is not None:
+                return self._future.result()
+        except Exception:  # the worker died or raised: compute it here
+            pass
+        finally:
+            self.close()
+        return self._fn(*self._args)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+        self._pool = self._future = None
