@@ -38,18 +38,11 @@ def test_speech_band_survives_and_aliases_do_not():
     assert alias < 1e-2 * spec.max()
 
 
-@pytest.mark.parametrize("rate,width,channels", [(44100, 2, 2), (16000, 3, 1), (22050, 1, 1)])
-def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width, channels):
-    """A long WAV file is read a block at a time (bounded memory), with the
-    samples Praat's reader gives; a long file cut short is left to Praat,
-    which says so."""
+def write_pcm(tmp_path, rate, width, channels, seconds, name="long.wav"):
+    """A plain PCM WAV file of a sine at varying level per channel."""
     import wave
 
-    import parselmouth
-
-    from addon.engine import wavstream
-
-    n = int(rate * (wavstream.LONG + 1))
+    n = int(rate * seconds)
     rng = np.random.default_rng(rate)
     x = np.sin(np.arange(n) * 0.03)[:, None] * rng.uniform(0.1, 0.9, (n, channels))
     if width == 1:
@@ -58,10 +51,37 @@ def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width
         data = (x * 8388607).astype("<i4").view(np.uint8).reshape(-1, 4)[:, :3].tobytes()
     else:
         data = (x * 32767).astype("<i2").tobytes()
-    path = tmp_path / "long.wav"
-    with wave.open(str(path), "wb") as w:
+    with wave.open(str(tmp_path / name), "wb") as w:
         w.setnchannels(channels), w.setsampwidth(width), w.setframerate(rate)
         w.writeframes(data)
+    return tmp_path / name
+
+
+@pytest.mark.parametrize("rate,width,channels", [(44100, 2, 2), (16000, 3, 1), (22050, 1, 1), (16000, 2, 1)])
+def test_short_wav_read_without_praat_gives_praats_samples(tmp_path, rate, width, channels):
+    import parselmouth
+
+    from addon.engine import wavstream
+
+    path = write_pcm(tmp_path, rate, width, channels, 3.5, "short.wav")
+    praat = parselmouth.Sound(str(path))
+    expected = audio.from_samples(praat.values, praat.sampling_frequency).samples
+    read = wavstream.read_wav(path)
+    assert read is not None and not isinstance(read.samples, wavstream.WavSamples)
+    assert np.array_equal(read.samples, expected)
+    assert np.array_equal(audio.load(path).samples, expected)
+
+
+@pytest.mark.parametrize("rate,width,channels", [(44100, 2, 2), (16000, 3, 1), (22050, 1, 1)])
+def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width, channels):
+    """A long WAV file is read a block at a time (bounded memory), with the
+    samples Praat's reader gives; a long file cut short is left to Praat,
+    which says so."""
+    import parselmouth
+
+    from addon.engine import wavstream
+
+    path = write_pcm(tmp_path, rate, width, channels, wavstream.LONG + 1)
     streamed = wavstream.read_long_wav(path)
     assert streamed is not None
     praat = parselmouth.Sound(str(path))

@@ -171,11 +171,11 @@ def load(path: str | os.PathLike) -> Audio:
         if head.startswith(magic) or (magic == b"ftyp" and head[4:8] == magic):
             raise AudioError(f"cannot read audio file {path}: it is {kind}, which this reader does not decode; "
                              "convert it to WAV or FLAC (in Blender, a sound strip of it works)")
-    from .wavstream import read_long_wav
+    from .wavstream import read_wav
 
-    long_wav = read_long_wav(path)
-    if long_wav is not None:
-        return long_wav
+    wav = read_wav(path)
+    if wav is not None:
+        return wav
     import parselmouth
 
     try:

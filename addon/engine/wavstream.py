@@ -1,4 +1,4 @@
-"""Long WAV files read a block at a time.
+"""Plain PCM WAV files read without Praat; long ones a block at a time.
 
 Praat reads a whole file into memory as 64-bit samples at the file's rate
 (a 30-minute stereo recording at 44.1 kHz: 1.3 GB, and again as a copy).
@@ -8,8 +8,9 @@ to 16 kHz mono block by block, so memory does not grow with the length.
 The samples are those Praat would give (integers scaled to [-1, 1),
 channels averaged) and the resampling is the same as
 :func:`.audio.resample`.
-Anything else (short files, other formats, WAV the ``wave`` module cannot
-read, a file cut short) is left to Praat, which says what is wrong with it.
+A shorter plain PCM WAV is read whole, with the same samples.  Anything
+else (other formats, WAV the ``wave`` module cannot read, a file cut short)
+is left to Praat, which says what is wrong with it.
 """
 
 from __future__ import annotations
@@ -115,15 +116,13 @@ class WavSamples:
         return np.asarray(self).astype(dtype)
 
 
-def read_long_wav(path: str | os.PathLike) -> Audio | None:
-    """The file as 16 kHz mono :class:`Audio` whose samples are read from
-    the file as they are needed (:class:`WavSamples`), or None when it is
-    not a long, complete, plain PCM WAV file (Praat reads it then)."""
-    path = os.fspath(path)
+def _plain_pcm(path: str) -> tuple[int, int, int, int] | None:
+    """(frames, rate, sample width, channels) of a complete plain PCM WAV
+    file, or None for anything else."""
     try:
         with wave.open(path, "rb") as w:
             n, rate, width, channels = w.getnframes(), w.getframerate(), w.getsampwidth(), w.getnchannels()
-            if width not in _SCALE or rate <= 0 or channels < 1 or n / rate < LONG:
+            if width not in _SCALE or rate <= 0 or channels < 1 or n < 1:
                 return None
             # The file holds every frame its header promises (else Praat
             # reads it and says it is cut short).
@@ -132,4 +131,39 @@ def read_long_wav(path: str | os.PathLike) -> Audio | None:
                 return None
     except (wave.Error, EOFError, OSError, ValueError):
         return None
-    return Audio(WavSamples(path, n, rate, width, channels), MODEL_RATE)
+    return n, rate, width, channels
+
+
+def read_long_wav(path: str | os.PathLike) -> Audio | None:
+    """The file as 16 kHz mono :class:`Audio` whose samples are read from
+    the file as they are needed (:class:`WavSamples`), or None when it is
+    not a long, complete, plain PCM WAV file (Praat reads it then)."""
+    path = os.fspath(path)
+    head = _plain_pcm(path)
+    if head is None or head[0] / head[1] < LONG:
+        return None
+    return Audio(WavSamples(path, *head), MODEL_RATE)
+
+
+def read_wav(path: str | os.PathLike) -> Audio | None:
+    """A complete plain PCM WAV file as 16 kHz mono :class:`Audio`: a long
+    one left on disk (:func:`read_long_wav`), a shorter one read whole with
+    the samples Praat would give, without loading Praat (the pitch tracker
+    may be loading it on the other core meanwhile).  None for anything else."""
+    path = os.fspath(path)
+    head = _plain_pcm(path)
+    if head is None:
+        return None
+    n, rate, width, channels = head
+    if n / rate >= LONG:
+        return Audio(WavSamples(path, n, rate, width, channels), MODEL_RATE)
+    try:
+        with wave.open(path, "rb") as w:
+            raw = w.readframes(n)
+    except (wave.Error, EOFError, OSError, ValueError):
+        return None
+    if len(raw) < n * width * channels:
+        return None
+    from .audio import from_samples
+
+    return from_samples(_decode(raw, width, channels), rate)
