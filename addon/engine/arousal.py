@@ -188,15 +188,16 @@ def speaking_rate(phones, duration: float) -> float:
 
 def estimate(audio: Audio, tracks: prosody.Tracks | None = None, alignment=None,
              model: dict | None = None, window: float | None = None, hop: float | None = None,
-             smooth: float | None = None) -> Estimate:
+             smooth: float | None = None, measured: Frames | None = None) -> Estimate:
     """The clip's arousal and its track.  ``tracks``: prosody already measured
-    (10 ms step); ``alignment``: adds the speaking rate."""
+    (10 ms step); ``alignment``: adds the speaking rate; ``measured``: the
+    :func:`frames` of this audio and tracks, already computed."""
     model = model or load_model()
     tr = model.get("track", {})
     window = float(window if window is not None else tr.get("window", 1.5))
     hop = float(hop if hop is not None else tr.get("hop", 0.1))
     smooth = float(smooth if smooth is not None else tr.get("smooth", 0.3))
-    fr = frames(audio, tracks, float(model.get("speech_db", 35.0)))
+    fr = measured if measured is not None else frames(audio, tracks, float(model.get("speech_db", 35.0)))
     feats = features(fr)
     if alignment is not None and getattr(alignment, "phones", None):
         feats["rate"] = speaking_rate(alignment.phones, alignment.duration)

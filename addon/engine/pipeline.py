@@ -268,15 +268,23 @@ def check_alignment_times(al: Alignment, audio_duration: float) -> None:
                            f"({audio_duration:.3f} s)")
 
 
-def _prosody_beside_alignment(snd: Audio, settings: AlignSettings | None) -> Background | None:
-    """Pitch and intensity computed on the second core while the first one
-    finds where to cut the clip in two, for clips aligned as two halves
+def measure_voice(snd: Audio) -> tuple[prosody.Tracks, arousal_mod.Frames | None]:
+    """Pitch and intensity tracks, and the frames arousal is judged on."""
+    tracks = prosody.analyse(snd)
+    if snd.duration < MIN_SPEECH:
+        return tracks, None
+    return tracks, arousal_mod.frames(snd, tracks, float(arousal_mod.load_model().get("speech_db", 35.0)))
+
+
+def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None) -> Background | None:
+    """:func:`measure_voice` on the second core while the first one finds
+    where to cut the clip in two, for clips aligned as two halves
     (:attr:`AlignSettings.split_above` to ``stream_above``); longer ones
     keep both cores busy aligning, shorter ones are aligned in one pass."""
     settings = settings or AlignSettings()
     if not settings.split_above < snd.duration <= settings.stream_above:
         return None
-    return Background(prosody.analyse, snd, settings=settings)
+    return Background(measure_voice, snd, settings=settings)
 
 
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
@@ -327,7 +335,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
                              f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
         lexicon = Lexicon.with_user_file(dictionary)
-        background = _prosody_beside_alignment(snd, settings)
+        background = _voice_beside_alignment(snd, settings)
         try:
             al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
         except BaseException:
@@ -341,8 +349,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         al = read_alignment(alignment, audio_duration=snd.duration)
     al.duration = max(snd.duration, al.duration if alignment is not None else 0.0)
     report("prosody", 0.8)
-    tracks = background.result() if background is not None else prosody.analyse(snd)
-    voice = arousal_mod.estimate(snd, tracks, al) if snd.duration >= MIN_SPEECH else None
+    tracks, measured = background.result() if background is not None else measure_voice(snd)
+    voice = arousal_mod.estimate(snd, tracks, al, measured=measured) if measured is not None else None
     changes = [emotion_track.Change(t, lookup(name), name)
                for t, name in emotion_track.tag_times(tags, [w.start for w in al.words], al.duration)]
     for t, p in emotion_changes or []:
