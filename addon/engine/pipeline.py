@@ -278,7 +278,7 @@ def measure_voice(snd: Audio) -> tuple[prosody.Tracks, arousal_mod.Frames | None
 
 def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None) -> Background | None:
     """:func:`measure_voice` on the second core while the first one finds
-    where to cut the clip in two, for clips aligned as two halves
+    where to cut the clip, for clips aligned in pieces
     (:attr:`AlignSettings.split_above` to ``stream_above``); longer ones
     keep both cores busy aligning, shorter ones are aligned in one pass."""
     settings = settings or AlignSettings()

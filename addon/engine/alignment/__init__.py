@@ -12,10 +12,12 @@ speech poorly.  This module therefore:
    pruning).  A forced alignment holds only the transcript's own words, so
    the search stays small, and it then succeeds on whole clips of a minute;
 2. aligns a clip in one forced pass.  A clip longer than
-   :attr:`AlignSettings.split_above` (10 s) is cut in two and both halves
-   are aligned at once, in two processes: a quick forced word pass over the
-   whole clip, scoring every third frame only, finds the pause between two
-   words nearest the middle, and the cut goes there.  A clip longer than
+   :attr:`AlignSettings.split_above` (10 s) is cut into an even number of
+   pieces of about 7 s, aligned two at a time in two processes: a quick
+   forced word pass over the whole clip, scoring every third frame only,
+   finds the pauses between words nearest the cuts' shares of the speech, and
+   the cuts go there (a pass's cost grows faster than its length, so four
+   pieces cost less than two halves).  A clip longer than
    :attr:`AlignSettings.stream_above` (90 s) is aligned window by
    window instead, so that memory stays bounded (:mod:`.stream`);
 3. checks every pass word by word against the transcript (each word is a
@@ -33,7 +35,7 @@ speech poorly.  This module therefore:
 
 The modules: :mod:`.model` (settings and results), :mod:`.speech` (where
 the speech and pauses are), :mod:`.decoding` (pocketsphinx passes),
-:mod:`.halves`, :mod:`.stream` and :mod:`.chunks` (how a clip is divided),
+:mod:`.pieces`, :mod:`.stream` and :mod:`.chunks` (how a clip is divided),
 :mod:`.estimate` (placing by estimate), :mod:`.core` (:func:`align`).
 """
 

@@ -9,7 +9,7 @@ from ..errors import AlignmentError, AudioError, TranscriptError
 from .chunks import _align_chunked
 from .decoding import _whole
 from .estimate import _clean, _estimate
-from .halves import _align_halves
+from .pieces import _align_pieces
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
 from .stream import align_stream
@@ -72,7 +72,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         done = True
     pool = _pool(settings) if not done and audio.duration > settings.split_above else None
     if pool is not None:
-        done = _align_halves(audio, prons, settings, pool, place)
+        done = _align_pieces(audio, prons, settings, pool, place)
     if not done:
         kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings)
         if kind != "failed":

@@ -23,7 +23,8 @@ def typical_duration(phone: str) -> float:
 class AlignSettings:
     """Knobs of the aligner.  The defaults were measured on real speech."""
 
-    split_above: float = 10.0    # clips longer than this are aligned as two halves at once (both cores), s
+    split_above: float = 10.0    # clips longer than this are aligned in pieces, two at once (both cores), s
+    piece: float = 7.0           # length the pieces aim at, s (an even number of them)
     # Clips longer than this are aligned window by window (bounded memory), s;
     # a window holds at most ``window`` seconds of audio.
     stream_above: float = 90.0

@@ -1,0 +1,85 @@
+"""Clips of 10 to 90 s: cut at pauses into an even number of pieces of
+about :attr:`AlignSettings.piece` seconds, force-aligned two at a time, one
+per core.  A forced pass keeps every state of its words alive at every
+frame, so its cost grows faster than its length: four 6.5 s pieces cost
+less than two 13 s halves, and the pieces keep both cores evenly busy."""
+
+from __future__ import annotations
+
+from ..audio import Audio
+from .decoding import _decoder, _whole
+from .model import FRAME, AlignSettings
+
+
+def piece_count(duration: float, settings: AlignSettings) -> int:
+    """An even number of pieces (at least two) of about ``settings.piece`` s."""
+    return 2 * max(1, round(duration / (2 * settings.piece)))
+
+
+def _cuts(audio: Audio, prons: list[list[str]], settings: AlignSettings,
+          parts: int) -> list[tuple[int, float]] | None:
+    """Where to cut a clip into ``parts`` pieces, and how many words go
+    before each cut.
+
+    A quick forced word pass over the whole clip (scoring every third frame
+    only: a cut needs the pauses, not exact boundaries) finds the words;
+    each cut goes in the middle of the pause between two words nearest its
+    share of the speech (the widest pause within half a piece of it).
+    Returns (words before the cut, cut time) per cut, in order, possibly
+    fewer than ``parts - 1``, or None if the pass fails."""
+    decoder = _decoder(prons, 0, settings, ds=3)
+    tokens = [f"w{i}" for i in range(len(prons))]
+    try:
+        decoder.set_align_text(" ".join(tokens))
+        decoder.start_utt()
+        decoder.process_raw(audio.pcm16(), full_utt=True)
+        decoder.end_utt()
+        segs = [(sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if sg.word.startswith("w")]
+    except RuntimeError:
+        return None
+    if len(segs) != len(prons):
+        return None
+    parts = min(parts, len(segs) // 2)   # at least two words a piece
+    if parts < 2:
+        return None
+    lo, hi = segs[0][0], segs[-1][1]
+    reach = (hi - lo) / parts / 2
+    cuts: list[tuple[int, float]] = []
+    for j in range(1, parts):
+        target = lo + (hi - lo) * j / parts
+        best = None
+        for i in range(1, len(segs)):
+            gap = segs[i][0] - segs[i - 1][1]
+            centre = (segs[i][0] + segs[i - 1][1]) / 2
+            if abs(centre - target) > reach or (cuts and i <= cuts[-1][0]):
+                continue
+            # The widest pause (up to 0.3 s) near the target; ties go to the nearer.
+            score = (min(gap, 30), -abs(centre - target))
+            if best is None or score > best[0]:
+                best = (score, i, centre)
+        if best is not None:
+            cuts.append((best[1], best[2] * FRAME))
+    return cuts or None
+
+
+def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings, pool, place) -> bool:
+    """Cut the clip (see :func:`_cuts`), then force-align every piece with its
+    own words, two at a time, the longest first.  Returns False, having
+    placed nothing, if any pass fails."""
+    cuts = _cuts(audio, prons, settings, piece_count(audio.duration, settings))
+    if cuts is None:
+        pool.shutdown()
+        return False
+    bounds = [(0, 0.0)] + cuts + [(len(prons), audio.duration)]
+    pieces = [(k0, k1, t0, t1) for (k0, t0), (k1, t1) in zip(bounds[:-1], bounds[1:])]
+    try:
+        futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings)
+                   for p in sorted(pieces, key=lambda p: p[2] - p[3])}
+        results = [(p, futures[p].result()) for p in pieces]
+    finally:
+        pool.shutdown()
+    if any(r[0] == "failed" for _, r in results):
+        return False
+    for (k0, k1, t0, t1), (kind, _, payload) in results:
+        place(kind, payload, k0, k1, t0, t1)
+    return True
