@@ -6,6 +6,7 @@ from typing import Callable, Sequence
 
 from ..audio import Audio
 from ..errors import AlignmentError, AudioError, TranscriptError
+from .bursts import refine_stops
 from .chunks import _align_chunked
 from .decoding import _whole
 from .estimate import _clean, _estimate
@@ -83,6 +84,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     if progress:
         progress(1.0)
 
+    refine_stops(audio, result, est)
     words: list[AlignedWord] = []
     phones: list[AlignedPhone] = []
     for wi in range(n):
