@@ -54,11 +54,10 @@ def burst_time(audio: Audio, start: float, end: float, cfg: dict | None = None) 
     k = max(1, int(round(span / hop)))
     if len(levels) <= k:
         return None
-    # rise[i]: how much louder the window starting k hops later is than
-    # window i; the burst begins where the later window's leading edge
-    # meets it, about ``win`` after window i starts.
+    # rise[i]: how much louder window i + k is than window i; the burst is
+    # put where window i + k starts.
     rise = levels[k:] - levels[:-k]
-    t = a / rate + np.arange(len(rise)) * hop + win
+    t = a / rate + (np.arange(len(rise)) + k) * hop
     inside = (t >= start) & (t < end)
     if not inside.any():
         return None
@@ -72,8 +71,9 @@ def refine_stops(audio: Audio, result: list, estimated: list[bool]) -> None:
     """Move the start of every word-initial stop that follows silence (the
     clip's start, or a gap of ``burst.after_gap`` s or more) to its release
     burst, in place (the burst may lie up to ``burst.slack`` s past the
-    stop's end; the stop keeps at least ``burst.min_keep`` s).  ``result`` holds per word a list of (phone, start,
-    end), or None; estimated words are left alone."""
+    stop's end; the stop keeps at least ``burst.min_keep`` s).  ``result``
+    holds per word a list of (phone, start, end), or None; estimated words
+    are left alone."""
     cfg = _settings()
     prev_end = 0.0
     first = True
