@@ -36,7 +36,9 @@ speech poorly.  This module therefore:
 The modules: :mod:`.model` (settings and results), :mod:`.speech` (where
 the speech and pauses are), :mod:`.decoding` (pocketsphinx passes),
 :mod:`.pieces`, :mod:`.stream` and :mod:`.chunks` (how a clip is divided),
-:mod:`.estimate` (placing by estimate), :mod:`.core` (:func:`align`).
+:mod:`.estimate` (placing by estimate), :mod:`.fillers` (a hesitation
+may be a filler sound), :mod:`.bursts` (a stop after silence starts at its
+release burst), :mod:`.core` (:func:`align`).
 """
 
 from .core import align, check_transcript_matches

@@ -6,6 +6,8 @@ from typing import Callable, Sequence
 
 from ..audio import Audio
 from ..errors import AlignmentError, AudioError, TranscriptError
+from .bursts import refine_stops
+from .fillers import mark, restore
 from .chunks import _align_chunked
 from .decoding import _whole
 from .estimate import _clean, _estimate
@@ -35,7 +37,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         raise TranscriptError("the transcript has no words to align")
     texts = list(texts or [f"word{i}" for i in range(n)])
     sources = list(sources or [""] * n)
-    prons = [list(p) for p in words_phones]
+    prons = mark(words_phones, texts)
     if audio.duration < 0.1:
         raise AudioError(f"the audio is too short to hold speech ({audio.duration:.3f} s; "
                          "a line needs at least 0.1 s)")
@@ -83,6 +85,8 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     if progress:
         progress(1.0)
 
+    restore(result, prons)
+    refine_stops(audio, result, est)
     words: list[AlignedWord] = []
     phones: list[AlignedPhone] = []
     for wi in range(n):

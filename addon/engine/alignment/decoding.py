@@ -9,16 +9,20 @@ import tempfile
 from typing import Sequence
 
 from ..audio import Audio
-from .model import AlignSettings
+from .fillers import base_token, dictionary_lines, has_hesitation, prefer
+from .model import FRAME, AlignSettings
+from .speech import frame_levels, speech_mask
 
 
-def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, **extra):
-    """A decoder whose dictionary holds only the given words, as tokens w<i>."""
+def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, fillers: bool = False,
+             **extra):
+    """A decoder whose dictionary holds only the given words, as tokens w<i>
+    (with ``fillers``, a hesitation also as a filler: :mod:`.fillers`)."""
     import pocketsphinx
 
     with tempfile.NamedTemporaryFile("w", suffix=".dict", delete=False) as fh:
         for k, ph in enumerate(prons):
-            fh.write(f"w{first + k} {' '.join(ph)}\n")
+            fh.write("".join(line + "\n" for line in dictionary_lines(f"w{first + k}", ph, fillers)))
         path = fh.name
     try:
         return pocketsphinx.Decoder(
@@ -55,7 +59,7 @@ def _decode(decoder, pcm: bytes, search: str, tokens: list[str], mode: str):
         decoder.start_utt()
         decoder.process_raw(pcm, full_utt=True)
         decoder.end_utt()
-        segs = [(sg.word, sg.start_frame, sg.end_frame) for sg in (decoder.seg() or [])]
+        segs = [(base_token(sg.word), sg.start_frame, sg.end_frame) for sg in (decoder.seg() or [])]
     except RuntimeError as exc:
         return ("failed", 0, f"word pass: {exc}")
     known = set(tokens)
@@ -94,8 +98,8 @@ def _phone_pass(decoder, pcm: bytes, got: list[str]):
         alignment = decoder.get_alignment()
         if alignment is None:
             raise RuntimeError("no sub-word alignment")
-        words = [(w.name, [(p.name, p.start, p.start + p.duration) for p in w])
-                 for w in alignment if w.name in known]
+        words = [(base_token(w.name), [(p.name, p.start, p.start + p.duration) for p in w])
+                 for w in alignment if base_token(w.name) in known]
     except RuntimeError:
         return None
     if [w[0] for w in words] != got:
@@ -104,7 +108,14 @@ def _phone_pass(decoder, pcm: bytes, got: list[str]):
 
 
 def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings):
-    """Forced alignment of words ``first..`` to the audio t0..t1 in one pass."""
-    decoder = _decoder(prons, first, settings)
+    """Forced alignment of words ``first..`` to the audio t0..t1 in one pass
+    (two when a hesitation may be a filler sound: :mod:`.fillers`)."""
     tokens = [f"w{first + i}" for i in range(len(prons))]
-    return _decode(decoder, audio.pcm16(t0, t1), "all", tokens, "all")
+    pcm = audio.pcm16(t0, t1)
+    plain = _decode(_decoder(prons, first, settings), pcm, "all", tokens, "all")
+    if not has_hesitation(prons):
+        return plain
+    with_fillers = _decode(_decoder(prons, first, settings, fillers=True), pcm, "all", tokens, "all")
+    part = Audio(audio.samples[int(round(t0 * audio.rate)):int(round(t1 * audio.rate))], audio.rate)
+    mask, _ = speech_mask(frame_levels(part), part)
+    return prefer(plain, with_fillers, mask, int(round(settings.filler_margin / FRAME)))

@@ -40,6 +40,9 @@ class AlignSettings:
     # breaths and hesitations between words are common.
     silprob: float = 0.1
     workers: int = 0             # processes; 0 = one per core
+    # A decode that lets hesitations be filler sounds is kept only if its
+    # words lie on at least this much more of the speech, s (see .fillers).
+    filler_margin: float = 0.2
 
 
 @dataclass
