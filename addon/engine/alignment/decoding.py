@@ -9,7 +9,7 @@ import tempfile
 from typing import Sequence
 
 from ..audio import Audio
-from .fillers import base_token, dictionary_lines, has_hesitation, prefer
+from .fillers import base_token, dictionary_lines, has_hesitation, prefer, uncovered
 from .model import FRAME, AlignSettings
 from .speech import frame_levels, speech_mask
 
@@ -50,6 +50,15 @@ def _decode(decoder, pcm: bytes, search: str, tokens: list[str], mode: str):
     Returns (kind, words used, payload): "phones" with per-word phone frames,
     "words" with word frames only, or "failed" with the reason.
     """
+    first = _word_pass(decoder, pcm, search, tokens, mode)
+    if first[0] == "failed":
+        return first
+    return _finish(decoder, pcm, first, mode)
+
+
+def _word_pass(decoder, pcm: bytes, search: str, tokens: list[str], mode: str):
+    """The first pass alone: ("words", words used, word frames, tokens found)
+    or ("failed", 0, reason).  The decoder keeps it for :func:`_finish`."""
     try:
         if mode == "all":
             decoder.set_align_text(" ".join(tokens))
@@ -70,7 +79,13 @@ def _decode(decoder, pcm: bytes, search: str, tokens: list[str], mode: str):
     expected = {"all": tokens, "head": tokens[:len(got)], "tail": tokens[len(tokens) - len(got):]}[mode]
     if got != expected:
         return ("failed", 0, "the word pass did not place every word")
-    word_frames = [(sg[1], sg[2] + 1) for sg in found]
+    return ("words", len(got), [(sg[1], sg[2] + 1) for sg in found], got)
+
+
+def _finish(decoder, pcm: bytes, first, mode: str):
+    """The phone pass after the decoder's word pass ``first``; the word
+    frames are kept if it fails."""
+    _, used, word_frames, got = first
     phones = _phone_pass(decoder, pcm, got)
     if phones is None and mode != "all":
         # The phone pass does not always follow a grammar search: force the
@@ -84,8 +99,8 @@ def _decode(decoder, pcm: bytes, search: str, tokens: list[str], mode: str):
         except RuntimeError:
             phones = None
     if phones is None:
-        return ("words", len(got), word_frames)
-    return ("phones", len(got), phones)
+        return ("words", used, word_frames)
+    return ("phones", used, phones)
 
 
 def _phone_pass(decoder, pcm: bytes, got: list[str]):
@@ -107,15 +122,28 @@ def _phone_pass(decoder, pcm: bytes, got: list[str]):
     return [w[1] for w in words]
 
 
-def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings):
-    """Forced alignment of words ``first..`` to the audio t0..t1 in one pass
-    (two when a hesitation may be a filler sound: :mod:`.fillers`)."""
+def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings,
+           fillers: bool = True):
+    """Forced alignment of words ``first..`` to the audio t0..t1 in one pass.
+
+    With ``fillers``, when a hesitation may be a filler sound
+    (:mod:`.fillers`), the word pass is made twice, as written and with
+    fillers, and the phone pass follows the one :func:`.fillers.prefer`
+    keeps.  The second word pass is skipped when the first leaves too little
+    speech off its words for the fillers to be preferred."""
     tokens = [f"w{first + i}" for i in range(len(prons))]
     pcm = audio.pcm16(t0, t1)
-    plain = _decode(_decoder(prons, first, settings), pcm, "all", tokens, "all")
-    if not has_hesitation(prons):
+    decoder = _decoder(prons, first, settings)
+    plain = _word_pass(decoder, pcm, "all", tokens, "all")
+    if fillers and has_hesitation(prons):
+        margin = int(round(settings.filler_margin / FRAME))
+        part = Audio(audio.samples[int(round(t0 * audio.rate)):int(round(t1 * audio.rate))], audio.rate)
+        mask, _ = speech_mask(frame_levels(part), part)
+        if plain[0] == "failed" or uncovered("words", plain[2], mask) >= margin:
+            filler_decoder = _decoder(prons, first, settings, fillers=True)
+            with_fillers = _word_pass(filler_decoder, pcm, "all", tokens, "all")
+            if prefer(plain, with_fillers, mask, margin) is with_fillers:
+                decoder, plain = filler_decoder, with_fillers
+    if plain[0] == "failed":
         return plain
-    with_fillers = _decode(_decoder(prons, first, settings, fillers=True), pcm, "all", tokens, "all")
-    part = Audio(audio.samples[int(round(t0 * audio.rate)):int(round(t1 * audio.rate))], audio.rate)
-    mask, _ = speech_mask(frame_levels(part), part)
-    return prefer(plain, with_fillers, mask, int(round(settings.filler_margin / FRAME)))
+    return _finish(decoder, pcm, plain, "all")

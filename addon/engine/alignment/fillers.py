@@ -4,12 +4,14 @@ A transcript writes a hesitation as a word, but the speaker may produce it as
 a grunt, a breath or a hoarse murmur that fits none of its phones.  Forced to
 use the word's phones, the aligner then puts the hesitation (and the words
 around it) wherever the audio resembles a vowel, sometimes seconds away.
-So a clip whose transcript holds a hesitation is decoded twice: as written,
-and with a second pronunciation of each hesitation in the decoder's
-dictionary, the acoustic model's "speech-like noise" filler (``+SPN+``).
-The second decode is kept only if its words lie on clearly more of the
-speech (:func:`prefer`); if the decoder chose the filler, :func:`restore`
-gives the word back its own phones, spread over the time the filler took.
+So a clip whose transcript holds a hesitation may have its word pass made
+twice: as written, and with a second pronunciation of each hesitation in the
+decoder's dictionary, the acoustic model's "speech-like noise" filler
+(``+SPN+``).  The second is made only when the first leaves speech off its
+words, and kept only if its words lie on clearly more of the speech
+(:func:`prefer`).  The phone pass follows the one kept; if the decoder
+chose the filler, :func:`restore` gives the word back its own phones,
+spread over the time the filler took.
 """
 
 from __future__ import annotations
@@ -66,7 +68,8 @@ def uncovered(kind: str, payload, mask: np.ndarray) -> int:
 
 
 def prefer(plain, with_fillers, mask: np.ndarray, margin: int):
-    """Of two decodes of the same words (``_decode`` results), the one with
+    """Of two decodes of the same words (results of ``_decode`` or of the
+    word pass alone, ``_word_pass``), the one with
     fillers only if it leaves at least ``margin`` fewer frames of speech
     off the words: the filler is a catch-all sound, and where the words
     themselves fit the speech as well, it only lets a hesitation wander

@@ -73,7 +73,10 @@ def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings,
     bounds = [(0, 0.0)] + cuts + [(len(prons), audio.duration)]
     pieces = [(k0, k1, t0, t1) for (k0, t0), (k1, t1) in zip(bounds[:-1], bounds[1:])]
     try:
-        futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings)
+        # Fillers stay out: a piece is short and cut at pauses, so a
+        # hesitation cannot wander far from its place (bench/timing.py:
+        # the same phone starts with the filler pass, for a third more time).
+        futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings, False)
                    for p in sorted(pieces, key=lambda p: p[2] - p[3])}
         results = [(p, futures[p].result()) for p in pieces]
     finally:
