@@ -11,7 +11,7 @@ a start 40 ms from the reference must not count as a miss because
 
 The two MFA clips are also joined into one ~52 s clip (acoustic, then cold)
 and scored against their references shifted accordingly: clips that long are
-aligned as two halves at once, a different path from the ~26 s clips.
+cut into more pieces (eight) than the ~26 s clips (four).
 Joined twice over (~105 s), they are aligned window by window, the path of
 long recordings.
 
