@@ -146,16 +146,61 @@ def _two_lines(tmp_path):
     return tmp_path / "two.wav", (SAMPLE / "hello.txt").read_text() + " " + (FIXTURES / "bob_map.txt").read_text()
 
 
-def test_long_clip_aligned_as_two_halves_matches_one_pass(tmp_path):
-    path, text = _two_lines(tmp_path)
-    one = align_file(path, text, settings=AlignSettings(split_above=1e9))
-    halves = align_file(path, text, settings=AlignSettings(split_above=1.0, workers=2))
-    assert [w.text for w in halves.words] == [w.text for w in one.words]
-    assert halves.n_estimated == 0 and one.n_estimated == 0
-    starts = np.array([p.start for p in halves.phones]) - np.array([p.start for p in one.phones])
+def _many_lines(tmp_path, times=2):
+    """Every fixture line with a transcript, then again: one clip of ~33 s."""
+    lines = [(SAMPLE / "hello.wav", (SAMPLE / "hello.txt").read_text()),
+             (FIXTURES / "pause.wav", "First part of the line. And the second part after a long pause."),
+             (FIXTURES / "bob_map.wav", (FIXTURES / "bob_map.txt").read_text()),
+             (FIXTURES / "fast_bilabials.wav", (FIXTURES / "fast_bilabials.txt").read_text())] * times
+    gap = np.zeros(6400, np.float32)
+    samples = np.concatenate([x for path, _ in lines for x in (audio_mod.load(path).samples, gap)])
+    write_wav(tmp_path / "long.wav", samples)
+    return tmp_path / "long.wav", " ".join(t for _, t in lines)
+
+
+@pytest.mark.parametrize("lines, parts", [("two", 2), ("many", 4)])
+def test_long_clip_aligned_in_pieces_matches_one_pass(tmp_path, monkeypatch, lines, parts):
+    from addon.engine.alignment import pieces
+
+    # The ~33 s clip's fast bilabials leave the cut pass that scores every
+    # third frame without a path; the one scoring every second frame cuts it.
+    path, text = _two_lines(tmp_path) if lines == "two" else _many_lines(tmp_path)
+    one = align_file(path, text, settings=AlignSettings(split_above=1e9, stream_above=1e9))
+    made = []
+    choose = pieces._choose_cuts
+    monkeypatch.setattr(pieces, "_choose_cuts", lambda segs, n: made.append(choose(segs, n)) or made[-1])
+    split = align_file(path, text, settings=AlignSettings(split_above=1.0, workers=2))
+    assert len(made) == 1 and len(made[0]) == parts - 1
+    assert [w.text for w in split.words] == [w.text for w in one.words]
+    assert split.n_estimated == 0 and one.n_estimated == 0
+    starts = np.array([p.start for p in split.phones]) - np.array([p.start for p in one.phones])
     assert np.median(np.abs(starts)) <= 0.011 and np.mean(np.abs(starts) <= 0.04) >= 0.9
-    # The last four words are bob/map, after the pause.
-    assert halves.words[-4].start > audio_mod.load(SAMPLE / "hello.wav").duration
+    if lines == "two":  # the last four words are bob/map, after the pause
+        assert split.words[-4].start > audio_mod.load(SAMPLE / "hello.wav").duration
+
+
+def test_pieces_are_an_even_number_of_about_the_piece_length():
+    from addon.engine.alignment.pieces import piece_count
+
+    settings = AlignSettings(piece=7.0)
+    assert [piece_count(d, settings) for d in (10.5, 20.0, 26.0, 45.0, 89.0)] == [2, 2, 4, 6, 12]
+
+
+def test_cuts_go_in_the_widest_pause_near_each_share_of_the_speech():
+    from addon.engine.alignment.pieces import _choose_cuts
+
+    # Ten words of 40 frames; pauses of 5 frames, but 25 after word 3 and
+    # 15 after word 7 (both within half a piece of the quarter marks).
+    segs, t = [], 0
+    for i in range(10):
+        segs.append((t, t + 40))
+        t += 40 + {2: 25, 6: 15}.get(i, 5)
+    cuts = _choose_cuts(segs, 4)
+    assert [k for k, _ in cuts] == [3, 5, 7]
+    assert cuts[0][1] == pytest.approx((segs[2][1] + segs[3][0]) / 2 * 0.01)
+    assert all(segs[k - 1][1] * 0.01 < c < segs[k][0] * 0.01 for k, c in cuts)
+    # At least two words a piece; a clip of three words is not cut at all.
+    assert len(_choose_cuts(segs[:5], 4)) == 1 and _choose_cuts(segs[:3], 4) is None
 
 
 def test_chunked_fallback_when_the_one_pass_fails(tmp_path, monkeypatch):
@@ -177,15 +222,8 @@ def test_long_clip_aligned_window_by_window_matches_one_pass(tmp_path, monkeypat
     memory); small windows on a ~33 s clip take the same code path."""
     from addon.engine.alignment import stream
 
-    lines = [(SAMPLE / "hello.wav", (SAMPLE / "hello.txt").read_text()),
-             (FIXTURES / "pause.wav", "First part of the line. And the second part after a long pause."),
-             (FIXTURES / "bob_map.wav", (FIXTURES / "bob_map.txt").read_text()),
-             (FIXTURES / "fast_bilabials.wav", (FIXTURES / "fast_bilabials.txt").read_text())] * 2
-    gap = np.zeros(6400, np.float32)
-    samples = np.concatenate([x for path, _ in lines for x in (audio_mod.load(path).samples, gap)])
-    write_wav(tmp_path / "long.wav", samples)
-    text = " ".join(t for _, t in lines)
-    one = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=1e9, split_above=1e9))
+    path, text = _many_lines(tmp_path)
+    one = align_file(path, text, settings=AlignSettings(stream_above=1e9, split_above=1e9))
     windows = []
     walk = stream._walk
 

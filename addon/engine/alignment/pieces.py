@@ -16,30 +16,33 @@ def piece_count(duration: float, settings: AlignSettings) -> int:
     return 2 * max(1, round(duration / (2 * settings.piece)))
 
 
-def _cuts(audio: Audio, prons: list[list[str]], settings: AlignSettings,
-          parts: int) -> list[tuple[int, float]] | None:
-    """Where to cut a clip into ``parts`` pieces, and how many words go
-    before each cut.
+def _segments(audio: Audio, prons: list[list[str]], settings: AlignSettings) -> list[tuple[int, int]] | None:
+    """(start, end) frame of every word from a quick forced word pass over
+    the whole clip, or None if it fails.  The pass scores every third frame
+    only (a cut needs the pauses, not exact boundaries); very fast speech
+    can leave it without a path, and every second frame is tried then."""
+    for ds in (3, 2):
+        decoder = _decoder(prons, 0, settings, ds=ds)
+        try:
+            decoder.set_align_text(" ".join(f"w{i}" for i in range(len(prons))))
+            decoder.start_utt()
+            decoder.process_raw(audio.pcm16(), full_utt=True)
+            decoder.end_utt()
+            segs = [(sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if sg.word.startswith("w")]
+        except RuntimeError:
+            continue
+        if len(segs) == len(prons):
+            return segs
+    return None
 
-    A quick forced word pass over the whole clip (scoring every third frame
-    only: a cut needs the pauses, not exact boundaries) finds the words;
-    each cut goes in the middle of the pause between two words nearest its
-    share of the speech (the widest pause within half a piece of it).
-    Returns (words before the cut, cut time) per cut, in order, possibly
-    fewer than ``parts - 1``, or None if the pass fails."""
-    decoder = _decoder(prons, 0, settings, ds=3)
-    tokens = [f"w{i}" for i in range(len(prons))]
-    try:
-        decoder.set_align_text(" ".join(tokens))
-        decoder.start_utt()
-        decoder.process_raw(audio.pcm16(), full_utt=True)
-        decoder.end_utt()
-        segs = [(sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if sg.word.startswith("w")]
-    except RuntimeError:
-        return None
-    if len(segs) != len(prons):
-        return None
-    parts = min(parts, len(segs) // 2)   # at least two words a piece
+
+def _choose_cuts(segs: list[tuple[int, int]], parts: int) -> list[tuple[int, float]] | None:
+    """Where to cut words with frames ``segs`` into ``parts`` pieces (at
+    most one per two words): each cut in the middle of the pause between two
+    words nearest its share of the speech (the widest pause, up to 0.3 s,
+    within half a piece of it).  (words before the cut, cut time) per cut,
+    in order, possibly fewer than ``parts - 1``; None if no cut is made."""
+    parts = min(parts, len(segs) // 2)
     if parts < 2:
         return None
     lo, hi = segs[0][0], segs[-1][1]
@@ -53,7 +56,6 @@ def _cuts(audio: Audio, prons: list[list[str]], settings: AlignSettings,
             centre = (segs[i][0] + segs[i - 1][1]) / 2
             if abs(centre - target) > reach or (cuts and i <= cuts[-1][0]):
                 continue
-            # The widest pause (up to 0.3 s) near the target; ties go to the nearer.
             score = (min(gap, 30), -abs(centre - target))
             if best is None or score > best[0]:
                 best = (score, i, centre)
@@ -63,10 +65,12 @@ def _cuts(audio: Audio, prons: list[list[str]], settings: AlignSettings,
 
 
 def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings, pool, place) -> bool:
-    """Cut the clip (see :func:`_cuts`), then force-align every piece with its
-    own words, two at a time, the longest first.  Returns False, having
-    placed nothing, if any pass fails."""
-    cuts = _cuts(audio, prons, settings, piece_count(audio.duration, settings))
+    """Cut the clip where :func:`_choose_cuts` says on the words of
+    :func:`_segments`, then force-align every piece with its own words, two
+    at a time, the longest first.  Returns False, having placed nothing, if
+    any pass fails."""
+    segs = _segments(audio, prons, settings)
+    cuts = _choose_cuts(segs, piece_count(audio.duration, settings)) if segs else None
     if cuts is None:
         pool.shutdown()
         return False
