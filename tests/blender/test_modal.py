@@ -10,6 +10,7 @@ workspace, feeding it the timer and Esc events Blender would.
 from __future__ import annotations
 
 import os
+import sys
 import time
 import wave
 from importlib import import_module
@@ -393,3 +394,45 @@ def test_learn_preset_job_saves_only_when_it_finishes(scene, jobs):
     assert outcome.finished and outcome.message.startswith("Learned preset 'kit_job' from 3 clips (leave-one-clip-out, 3 held out)")
     assert os.path.isfile(path) and scene.emotive_lipsync.emotion == "kit_job"
     assert seen == sorted(seen) and job.fraction == 1.0  # the steps add up to one bar
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2 or os.name == "nt" or sys.platform == "darwin",
+                    reason="lines are aligned in pieces on two cores only where processes can be forked")
+def test_a_line_over_ten_seconds_is_aligned_in_pieces_from_the_jobs_thread(scene, jobs, tmp_path, monkeypatch):
+    """A line of 10 to 90 s is cut into pieces aligned in forked processes
+    while the voice is measured in another: from the job's background
+    thread inside Blender too, with every word placed by the aligner."""
+    parts = [(os.path.join(FIXTURES, "pause.wav"), "First part of the line. And the second part after a long pause."),
+             (BOB, None), (os.path.join(FIXTURES, "pause.wav"), "First part of the line. And the second part."),
+             (PIE, None)]
+    frames, texts = [], []
+    for path, text in parts:
+        with wave.open(path, "rb") as w:
+            rate = w.getframerate()
+            frames.append(w.readframes(w.getnframes()) + b"\0\0" * int(0.4 * rate))
+        if text is None:
+            with open(os.path.splitext(path)[0] + ".txt", encoding="utf-8") as fh:
+                text = fh.read().strip()
+        texts.append(text)
+    line = str(tmp_path / "long_line.wav")
+    with wave.open(line, "wb") as w:
+        w.setnchannels(1), w.setsampwidth(2), w.setframerate(rate)
+        w.writeframes(b"".join(frames))
+    with open(os.path.splitext(line)[0] + ".txt", "w", encoding="utf-8") as fh:
+        fh.write(" ".join(texts))
+    pieces = import_module(f"{MODULE}.engine.alignment.pieces")
+    cuts = []
+    choose = pieces._choose_cuts
+    monkeypatch.setattr(pieces, "_choose_cuts", lambda segs, n: cuts.append(choose(segs, n)) or cuts[-1])
+    obj, clip, text, options = _inputs(scene, path=line)
+    assert clip.audio.duration > 10.0
+    outcome = jobs.lipsync_job(scene, obj, clip, text, options).start().wait(120)
+    assert outcome is not None and outcome.finished, outcome
+    assert len(cuts) == 1 and cuts[0], "the line was not cut into pieces"
+    assert "estimated" not in outcome.message
+    ada = bpy.data.objects["Ada"]
+    keyed = _curves(ada)
+    assert keyed
+    # The keys reach the end of the line: the last piece was placed too.
+    last = max(frames[-1] for frames, _ in keyed.values())
+    assert last >= clip.first_frame + 0.9 * scene.render.fps * clip.audio.duration
