@@ -78,8 +78,9 @@ def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings,
     pieces = [(k0, k1, t0, t1) for (k0, t0), (k1, t1) in zip(bounds[:-1], bounds[1:])]
     try:
         # Fillers stay out: a piece is short and cut at pauses, so a
-        # hesitation cannot wander far from its place (bench/timing.py:
-        # the same phone starts with the filler pass, for a third more time).
+        # hesitation cannot wander far from its place (bench/timing.py: the
+        # same phone starts with the filler pass; cold_corpus 1.39 s without
+        # it, 1.60 s with it).
         futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings, False)
                    for p in sorted(pieces, key=lambda p: p[2] - p[3])}
         results = [(p, futures[p].result()) for p in pieces]
