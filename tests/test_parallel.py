@@ -49,8 +49,8 @@ def test_voice_measured_in_the_background_equals_voice_measured_in_process(fixtu
 def test_clips_between_split_and_stream_lengths_get_voice_beside_alignment():
     snd = audio_mod.Audio(np.zeros(16000 * 12, np.float32), 16000)
     settings = AlignSettings(workers=2)
-    job = pipeline._voice_beside_alignment(snd, settings)
+    job = pipeline._voice_beside_alignment(snd, settings, {})
     assert job is not None
     job.close()
     short = audio_mod.Audio(np.zeros(16000 * 5, np.float32), 16000)
-    assert pipeline._voice_beside_alignment(short, settings) is None
+    assert pipeline._voice_beside_alignment(short, settings, {}) is None

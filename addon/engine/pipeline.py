@@ -268,15 +268,17 @@ def check_alignment_times(al: Alignment, audio_duration: float) -> None:
                            f"({audio_duration:.3f} s)")
 
 
-def measure_voice(snd: Audio) -> tuple[prosody.Tracks, arousal_mod.Frames | None]:
-    """Pitch and intensity tracks, and the frames arousal is judged on."""
+def measure_voice(snd: Audio, model: dict | None = None) -> tuple[prosody.Tracks, arousal_mod.Frames | None]:
+    """Pitch and intensity tracks, and the frames arousal is judged on
+    (by ``model``, default :func:`.arousal.load_model`)."""
     tracks = prosody.analyse(snd)
     if snd.duration < MIN_SPEECH:
         return tracks, None
-    return tracks, arousal_mod.frames(snd, tracks, float(arousal_mod.load_model().get("speech_db", 35.0)))
+    model = model or arousal_mod.load_model()
+    return tracks, arousal_mod.frames(snd, tracks, float(model.get("speech_db", 35.0)))
 
 
-def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None) -> Background | None:
+def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None, model: dict) -> Background | None:
     """:func:`measure_voice` on the second core while the first one finds
     where to cut the clip, for clips aligned in pieces
     (:attr:`AlignSettings.split_above` to ``stream_above``); longer ones
@@ -284,7 +286,7 @@ def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None) -> Backg
     settings = settings or AlignSettings()
     if not settings.split_above < snd.duration <= settings.stream_above:
         return None
-    return Background(measure_voice, snd, settings=settings)
+    return Background(measure_voice, snd, model, settings=settings)
 
 
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
@@ -326,6 +328,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         raise LipSyncError(f"the emotion fade must be 0 s or more, got {emotion_fade!r}")
     report("decode", 0.0)
     snd = audio if isinstance(audio, Audio) else audio_mod.load(audio)
+    voice_model = arousal_mod.load_model()
     if alignment is None:
         if text is None:
             raise LipSyncError("give a transcript, or an alignment file to import")
@@ -335,7 +338,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
                              f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
         lexicon = Lexicon.with_user_file(dictionary)
-        background = _voice_beside_alignment(snd, settings)
+        background = _voice_beside_alignment(snd, settings, voice_model)
         try:
             al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
         except BaseException:
@@ -349,8 +352,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         al = read_alignment(alignment, audio_duration=snd.duration)
     al.duration = max(snd.duration, al.duration if alignment is not None else 0.0)
     report("prosody", 0.8)
-    tracks, measured = background.result() if background is not None else measure_voice(snd)
-    voice = arousal_mod.estimate(snd, tracks, al, measured=measured) if measured is not None else None
+    tracks, measured = background.result() if background is not None else measure_voice(snd, voice_model)
+    voice = arousal_mod.estimate(snd, tracks, al, voice_model, measured=measured) if measured is not None else None
     changes = [emotion_track.Change(t, lookup(name), name)
                for t, name in emotion_track.tag_times(tags, [w.start for w in al.words], al.duration)]
     for t, p in emotion_changes or []:

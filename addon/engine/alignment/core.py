@@ -76,7 +76,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     if pool is not None:
         done = _align_pieces(audio, prons, settings, pool, place)
     if not done:
-        kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings)
+        kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings, mask)
         if kind != "failed":
             place(kind, payload, 0, n, 0.0, audio.duration)
             done = True

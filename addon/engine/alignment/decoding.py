@@ -8,10 +8,11 @@ import os
 import tempfile
 from typing import Sequence
 
+import numpy as np
+
 from ..audio import Audio
 from .fillers import base_token, dictionary_lines, has_hesitation, prefer, uncovered
 from .model import FRAME, AlignSettings
-from .speech import frame_levels, speech_mask
 
 
 def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, fillers: bool = False,
@@ -123,11 +124,12 @@ def _phone_pass(decoder, pcm: bytes, got: list[str]):
 
 
 def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings,
-           fillers: bool = True):
+           speech: np.ndarray | None = None):
     """Forced alignment of words ``first..`` to the audio t0..t1 in one pass.
 
-    With ``fillers``, when a hesitation may be a filler sound
-    (:mod:`.fillers`), the word pass is made twice, as written and with
+    Given ``speech``, the clip's speech mask (:func:`.speech.speech_mask`,
+    one value per frame from the clip's start), a hesitation may be a filler
+    sound (:mod:`.fillers`): the word pass is made twice, as written and with
     fillers, and the phone pass follows the one :func:`.fillers.prefer`
     keeps.  The second word pass is skipped when the first leaves too little
     speech off its words for the fillers to be preferred."""
@@ -135,10 +137,9 @@ def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: floa
     pcm = audio.pcm16(t0, t1)
     decoder = _decoder(prons, first, settings)
     plain = _word_pass(decoder, pcm, "all", tokens, "all")
-    if fillers and has_hesitation(prons):
+    if speech is not None and has_hesitation(prons):
         margin = int(round(settings.filler_margin / FRAME))
-        part = Audio(audio.samples[int(round(t0 * audio.rate)):int(round(t1 * audio.rate))], audio.rate)
-        mask, _ = speech_mask(frame_levels(part), part)
+        mask = speech[int(round(t0 / FRAME)):int(round(t1 / FRAME))]
         if plain[0] == "failed" or uncovered("words", plain[2], mask) >= margin:
             filler_decoder = _decoder(prons, first, settings, fillers=True)
             with_fillers = _word_pass(filler_decoder, pcm, "all", tokens, "all")

@@ -7,7 +7,7 @@ less than two 13 s halves, and the pieces keep both cores evenly busy."""
 from __future__ import annotations
 
 from ..audio import Audio
-from .decoding import _decoder, _whole
+from .decoding import _decoder, _whole, _word_pass
 from .model import FRAME, AlignSettings
 
 
@@ -21,18 +21,12 @@ def _segments(audio: Audio, prons: list[list[str]], settings: AlignSettings) -> 
     the whole clip, or None if it fails.  The pass scores every third frame
     only (a cut needs the pauses, not exact boundaries); very fast speech
     can leave it without a path, and every second frame is tried then."""
+    pcm = audio.pcm16()
+    tokens = [f"w{i}" for i in range(len(prons))]
     for ds in (3, 2):
-        decoder = _decoder(prons, 0, settings, ds=ds)
-        try:
-            decoder.set_align_text(" ".join(f"w{i}" for i in range(len(prons))))
-            decoder.start_utt()
-            decoder.process_raw(audio.pcm16(), full_utt=True)
-            decoder.end_utt()
-            segs = [(sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if sg.word.startswith("w")]
-        except RuntimeError:
-            continue
-        if len(segs) == len(prons):
-            return segs
+        first = _word_pass(_decoder(prons, 0, settings, ds=ds), pcm, "all", tokens, "all")
+        if first[0] != "failed":
+            return first[2]
     return None
 
 
@@ -77,11 +71,11 @@ def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings,
     bounds = [(0, 0.0)] + cuts + [(len(prons), audio.duration)]
     pieces = [(k0, k1, t0, t1) for (k0, t0), (k1, t1) in zip(bounds[:-1], bounds[1:])]
     try:
-        # Fillers stay out: a piece is short and cut at pauses, so a
-        # hesitation cannot wander far from its place (bench/timing.py: the
-        # same phone starts with the filler pass; cold_corpus 1.39 s without
-        # it, 1.60 s with it).
-        futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings, False)
+        # No speech mask, so no filler pass: a piece is short and cut at
+        # pauses, so a hesitation cannot wander far from its place
+        # (bench/timing.py: the same phone starts with the filler pass;
+        # cold_corpus 1.39 s without it, 1.60 s with it).
+        futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings)
                    for p in sorted(pieces, key=lambda p: p[2] - p[3])}
         results = [(p, futures[p].result()) for p in pieces]
     finally:
