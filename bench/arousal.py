@@ -130,7 +130,7 @@ def main() -> None:
     p = loo(by_db.get(db0, rows), y, lam0)
     print(f"estimator, leave-one-out CV at the shipped speech {db0:g} dB / ridge {lam0:g}: rho = {spearman(p, y):+.3f}"
           "  (settings picked on all clips: optimistic)")
-    est = [arousal.estimate_file(d / r["file"], shipped) for r in labels]
+    est = [arousal.estimate(s, t, model=shipped) for s, t in zip(sounds, tracks)]  # decoded and tracked above
     print(f"shipped constants, in-sample (all 24):     rho = {spearman([e.value for e in est], y):+.3f}")
     err = np.abs(np.array([e.value for e in est]) - y)
     print(f"  mean absolute error {err.mean():.3f}; estimates span {min(e.value for e in est):+.2f} "

@@ -9,6 +9,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        IntProperty, PointerProperty, StringProperty)
 
 from ..engine import presets, visemes
+from ..engine.emotion_track import DEFAULT_FADE
 
 # Stored as numbers: the sets of the first release keep theirs, so older
 # files read back the same choice; later sets are numbered from 10 up.
@@ -145,7 +146,7 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                               description="Keep only the keys needed to stay within the tolerance")
     tolerance: FloatProperty(name="Tolerance", default=0.02, min=0.001, max=0.5, precision=3,
                              description="Largest change in a shape key's value that dropping keys may cause")
-    emotion_fade: FloatProperty(name="Emotion Fade", default=0.3, min=0.0, max=2.0, unit="TIME_ABSOLUTE",
+    emotion_fade: FloatProperty(name="Emotion Fade", default=DEFAULT_FADE, min=0.0, max=2.0, unit="TIME_ABSOLUTE",
                                 description="Seconds over which an emotion change (an [angry] tag in the "
                                             "transcript, an emotion:angry timeline marker) cross-fades")
     dictionary: StringProperty(name="Dictionary", subtype="FILE_PATH",

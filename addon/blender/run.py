@@ -15,6 +15,7 @@ import bpy
 from ..engine import conventions, pipeline, visemes
 from ..engine import mapping as mapping_mod
 from ..engine.align import AlignSettings
+from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
 from . import compat, emotion_markers, keying
 from .sources import Clip, scene_fps
@@ -30,7 +31,7 @@ class Options:
     dictionary: str | None = None
     workers: int = 0
     whole_character: bool = True         # also key the character's other meshes with those shape keys
-    emotion_fade: float = 0.3            # s over which an emotion change (tag, marker) cross-fades
+    emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
 
 
 @dataclass

@@ -36,9 +36,11 @@ unvoiced stretch, take the clip's value) and smooths the result.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -93,8 +95,21 @@ class Frames:
 
 
 def load_model(path: str | os.PathLike | None = None) -> dict:
-    """The model's constants: ``path``, else ``$LIPSYNC_AROUSAL_MODEL``, else the built-in file."""
+    """The model's constants: ``path``, else ``$LIPSYNC_AROUSAL_MODEL``, else the built-in file.
+
+    A file is read and checked once while it is unchanged (a run asks for the
+    model for every preset it renders); each call gets its own copy."""
     path = Path(path or os.environ.get("LIPSYNC_AROUSAL_MODEL") or DATA)
+    try:
+        stamp = path.stat().st_mtime_ns
+    except OSError as exc:
+        raise LipSyncError(f"arousal model {path}: cannot be read ({exc})") from None
+    return copy.deepcopy(_read_model(path, stamp))
+
+
+@lru_cache(maxsize=4)
+def _read_model(path: Path, stamp: int) -> dict:
+    """:func:`load_model`'s reading and checking, for one version of a file."""
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from . import capture, presets, visemes
+from .emotion_track import DEFAULT_FADE
 from .errors import LipSyncError
 from .text import read_text_file
 
@@ -31,8 +32,8 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--emotion", default="neutral",
                    help=f"built-in preset ({', '.join(presets.builtin_names())}) or a .json file (default: neutral)")
     a.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
-    a.add_argument("--emotion-fade", type=float, default=0.3, metavar="SECONDS",
-                   help="cross-fade of an inline emotion tag such as [angry] (default: 0.3)")
+    a.add_argument("--emotion-fade", type=float, default=DEFAULT_FADE, metavar="SECONDS",
+                   help=f"cross-fade of an inline emotion tag such as [angry] (default: {DEFAULT_FADE:g})")
     a.add_argument("--fps", default="30", help="frames per second: 24, 25, 30, 60, 23.976, 29.97, 24000/1001 ...")
     a.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
     a.add_argument("--workers", type=int, default=0, help="alignment processes (0: one per core)")

@@ -36,7 +36,6 @@ DATA = Path(__file__).parent / "data" / "ipa.json"
 
 #: Modifier letters and marks that carry no visible articulation.
 MODIFIERS = set("ˈˌːˑ.‿͜͡ʰʱʲʷˠˤⁿˡʼ̚ᵊ˞-_|‖↗↘ꜛꜜ") | set("˥˦˧˨˩꜒꜓꜔꜕꜖꜀꜁꜂꜃꜄꜅꜆꜇꜈꜉꜊꜋꜌꜍꜎꜏꜐꜑") | set("0123456789")
-TIES = set("͜͡‿")
 
 
 class UnknownSymbol(ValueError):
