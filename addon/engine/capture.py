@@ -59,55 +59,65 @@ def _time_column(lower: list[str]) -> tuple[int | None, bool]:
     return next((lower.index(n) for n in _TIME_SECONDS if n in lower), None), False
 
 
-def read_capture_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """(times in s from the first row, values (rows, channels), ARKit channel names)."""
-    path = Path(path)
+def _read_rows(path: Path, what: str) -> tuple[list[list[str]], list[str]]:
+    """The non-blank rows of a per-frame CSV after its header, and the header."""
     if not path.is_file():
-        raise ImportFormatError(f"capture file not found: {path}")
+        raise ImportFormatError(f"{what} file not found: {path}")
     with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.reader(fh))
-    rows = [r for r in rows if any(c.strip() for c in r)]
+        rows = [r for r in csv.reader(fh) if any(c.strip() for c in r)]
     if len(rows) < 3:
         raise ImportFormatError(f"{path}: needs a header row and at least two frames")
-    header = [h.strip() for h in rows[0]]
-    lower = [h.lower() for h in header]
-    t_col, is_tc = _time_column(lower)
-    if t_col is None:
-        raise ImportFormatError(f"{path}: no time column (Timecode, or time / seconds in seconds); "
-                                f"the header is {', '.join(header[:6])}{' ...' if len(header) > 6 else ''}")
-    cols = [(k, _BY_CANON[canonical(h)]) for k, h in enumerate(header) if canonical(h) in _BY_CANON]
-    if not cols:
-        raise ImportFormatError(f"{path}: no ARKit blendshape columns (jawOpen, mouthClose, ...)")
-    names = [n for _k, n in cols]
-    if len(set(names)) != len(names):
-        raise ImportFormatError(f"{path}: a blendshape appears twice in the header")
-    times = np.empty(len(rows) - 1)
-    values = np.empty((len(rows) - 1, len(cols)))
-    for i, row in enumerate(rows[1:]):
-        line = i + 2
-        if len(row) != len(header):
-            raise ImportFormatError(f"{path}, line {line}: {len(row)} values, but the header has {len(header)} "
-                                    "columns")
-        where = f"{path}, line {line}"
-        if is_tc:
-            times[i] = _timecode(row[t_col], fps, where)
-        else:
+    return rows[1:], [h.strip() for h in rows[0]]
+
+
+def _read_frames(path: Path, rows: list[list[str]], width: int, t_col: int, is_tc: bool, fps: float,
+                 unit: float, cols: list[tuple[int, str, list | None]]) -> tuple[np.ndarray, np.ndarray]:
+    """(times in s from the first row, values) of ``rows``: the time from
+    column ``t_col`` (a timecode, or a number times ``unit``), and for each
+    (column, name, range) of ``cols`` its value, mapped so that range [a, b]
+    becomes [0, 1] when a range is given.  Every row must have ``width``
+    cells, every value must be a finite number and time must increase."""
+    times = np.empty(len(rows))
+    values = np.empty((len(rows), len(cols)))
+    for i, row in enumerate(rows):
+        where = f"{path}, line {i + 2}"
+        if len(row) != width:
+            raise ImportFormatError(f"{where}: {len(row)} values, but the header has {width} columns")
+        try:
+            times[i] = _timecode(row[t_col], fps, where) if is_tc else float(row[t_col]) * unit
+        except ValueError:
+            raise ImportFormatError(f"{where}: time {row[t_col]!r} is not a number") from None
+        for j, (k, name, rng) in enumerate(cols):
             try:
-                times[i] = float(row[t_col])
+                v = float(row[k])
             except ValueError:
-                raise ImportFormatError(f"{where}: time {row[t_col]!r} is not a number") from None
-        for j, (k, n) in enumerate(cols):
-            try:
-                values[i, j] = float(row[k])
-            except ValueError:
-                raise ImportFormatError(f"{where}: {n} = {row[k]!r} is not a number") from None
-    if not np.all(np.isfinite(values)):
+                raise ImportFormatError(f"{where}: {name} = {row[k]!r} is not a number") from None
+            values[i, j] = v if rng is None else (v - rng[0]) / (rng[1] - rng[0])
+    if not np.all(np.isfinite(values)) or not np.all(np.isfinite(times)):
         raise ImportFormatError(f"{path}: holds NaN or infinite values")
     if np.any(np.diff(times) <= 0):
         k = int(np.flatnonzero(np.diff(times) <= 0)[0])
         raise ImportFormatError(f"{path}, line {k + 3}: time does not increase ({times[k + 1]:.4f} s after "
                                 f"{times[k]:.4f} s)")
-    return times - times[0], values, names
+    return times - times[0], values
+
+
+def read_capture_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(times in s from the first row, values (rows, channels), ARKit channel names)."""
+    path = Path(path)
+    rows, header = _read_rows(path, "capture")
+    t_col, is_tc = _time_column([h.lower() for h in header])
+    if t_col is None:
+        raise ImportFormatError(f"{path}: no time column (Timecode, or time / seconds in seconds); "
+                                f"the header is {', '.join(header[:6])}{' ...' if len(header) > 6 else ''}")
+    cols = [(k, _BY_CANON[canonical(h)], None) for k, h in enumerate(header) if canonical(h) in _BY_CANON]
+    if not cols:
+        raise ImportFormatError(f"{path}: no ARKit blendshape columns (jawOpen, mouthClose, ...)")
+    names = [n for _k, n, _r in cols]
+    if len(set(names)) != len(names):
+        raise ImportFormatError(f"{path}: a blendshape appears twice in the header")
+    times, values = _read_frames(path, rows, len(header), t_col, is_tc, fps, 1.0, cols)
+    return times, values, names
 
 
 # --- generic per-frame tracks ----------------------------------------------------------
@@ -181,50 +191,23 @@ def read_track_csv(path: str | Path, track_map: dict, fps: float = 60.0
     from any per-frame CSV whose columns ``track_map`` names
     (:func:`load_track_map`)."""
     path = Path(path)
-    if not path.is_file():
-        raise ImportFormatError(f"track file not found: {path}")
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = [r for r in csv.reader(fh) if any(c.strip() for c in r)]
-    if len(rows) < 3:
-        raise ImportFormatError(f"{path}: needs a header row and at least two frames")
-    header = [h.strip() for h in rows[0]]
-    lower = [h.lower() for h in header]
+    rows, header = _read_rows(path, "track")
     tname = track_map.get("time")
     if tname:
         if tname not in header:
             raise ImportFormatError(f"{path}: no time column {tname!r}; the header is {', '.join(header[:8])}")
         t_col, is_tc = header.index(tname), False
     else:
-        t_col, is_tc = _time_column(lower)
+        t_col, is_tc = _time_column([h.lower() for h in header])
         if t_col is None:
             raise ImportFormatError(f"{path}: no time column (name it in the track map's \"time\")")
     unit = 0.001 if track_map.get("time_unit") == "ms" else 1.0
-    cols = []
+    cols, tracks = [], []
     for col, (track, rng) in track_map["columns"].items():
         if col not in header:
             raise ImportFormatError(f"{path}: no column {col!r}; the header is {', '.join(header[:8])}"
                                     f"{' ...' if len(header) > 8 else ''}")
-        cols.append((header.index(col), col, track, rng))
-    times = np.empty(len(rows) - 1)
-    values = np.empty((len(rows) - 1, len(cols)))
-    for i, row in enumerate(rows[1:]):
-        where = f"{path}, line {i + 2}"
-        if len(row) != len(header):
-            raise ImportFormatError(f"{where}: {len(row)} values, but the header has {len(header)} columns")
-        try:
-            times[i] = _timecode(row[t_col], fps, where) if is_tc else float(row[t_col]) * unit
-        except ValueError:
-            raise ImportFormatError(f"{where}: time {row[t_col]!r} is not a number") from None
-        for j, (k, col, _t, rng) in enumerate(cols):
-            try:
-                v = float(row[k])
-            except ValueError:
-                raise ImportFormatError(f"{where}: {col} = {row[k]!r} is not a number") from None
-            values[i, j] = v if rng is None else (v - rng[0]) / (rng[1] - rng[0])
-    if not np.all(np.isfinite(values)) or not np.all(np.isfinite(times)):
-        raise ImportFormatError(f"{path}: holds NaN or infinite values")
-    if np.any(np.diff(times) <= 0):
-        k = int(np.flatnonzero(np.diff(times) <= 0)[0])
-        raise ImportFormatError(f"{path}, line {k + 3}: time does not increase ({times[k + 1]:.4f} s after "
-                                f"{times[k]:.4f} s)")
-    return times - times[0], values, [t for _k, _c, t, _r in cols]
+        cols.append((header.index(col), col, rng))
+        tracks.append(track)
+    times, values = _read_frames(path, rows, len(header), t_col, is_tc, fps, unit, cols)
+    return times, values, tracks
