@@ -6,6 +6,7 @@ other programs make.  Each step is also callable on its own.
 
 from __future__ import annotations
 
+import copy
 import csv
 import json
 import os
@@ -289,6 +290,19 @@ def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None, model: d
     return Background(measure_voice, snd, model, settings=settings)
 
 
+def _once_per_name(lookup: Callable[[str], dict]) -> Callable[[str], dict]:
+    """``lookup`` reading each preset once (a tag's name is looked up when
+    the tag is found and again when it is timed); every caller gets its own
+    copy.  A name that fails is not remembered, so it fails again alike."""
+    found: dict[str, dict] = {}
+
+    def once(name: str) -> dict:
+        if name not in found:
+            found[name] = lookup(name)
+        return copy.deepcopy(found[name])
+    return once
+
+
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
             viseme_set: str | None = None, emotion: str | dict = "neutral",
@@ -320,7 +334,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     vset = viseme_set_for(preset, viseme_set)
     if coarticulation_model not in MODELS:
         raise LipSyncError(f"unknown coarticulation model {coarticulation_model!r}: use {' or '.join(MODELS)}")
-    lookup = emotion_lookup or presets.load
+    lookup = _once_per_name(emotion_lookup or presets.load)
     tags = []
     if text is not None:
         text, tags = emotion_track.split_tags(text, known=lambda n: bool(lookup(n)))
