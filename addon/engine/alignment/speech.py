@@ -71,50 +71,34 @@ def speech_mask(levels: np.ndarray, audio: Audio | None = None) -> tuple[np.ndar
     return _close_runs(mask, False, 8), threshold
 
 
+def runs(mask: np.ndarray, value: bool = True) -> np.ndarray:
+    """[start, end) frames of every run of ``value`` in ``mask``, shape (runs, 2)."""
+    m = (np.asarray(mask) == value).astype(np.int8)
+    return np.flatnonzero(np.diff(np.concatenate(([0], m, [0])))).reshape(-1, 2)
+
+
 def _close_runs(mask: np.ndarray, value: bool, shorter_than: int) -> np.ndarray:
+    """``mask`` with the runs of ``value`` inside it (not at its ends)
+    shorter than ``shorter_than`` frames turned over."""
     out = mask.copy()
-    n = len(mask)
-    i = 0
-    while i < n:
-        if mask[i] == value:
-            j = i
-            while j < n and mask[j] == value:
-                j += 1
-            if 0 < i and j < n and j - i < shorter_than:
-                out[i:j] = not value
-            i = j
-        else:
-            i += 1
+    for i, j in runs(mask, value):
+        if 0 < i and j < len(mask) and j - i < shorter_than:
+            out[i:j] = not value
     return out
 
 
 def pauses(mask: np.ndarray, min_pause: float) -> list[tuple[float, float]]:
     """Silent stretches inside the speech (not before or after it), in seconds."""
-    idx = np.flatnonzero(mask)
-    if len(idx) == 0:
+    if not mask.any():
         return []
-    found = []
-    first, last = idx[0], idx[-1]
-    i = first
-    while i <= last:
-        if not mask[i]:
-            j = i
-            while j <= last and not mask[j]:
-                j += 1
-            if (j - i) * FRAME >= min_pause:
-                found.append((i * FRAME, j * FRAME))
-            i = j
-        else:
-            i += 1
-    return found
+    return [(int(i) * FRAME, int(j) * FRAME) for i, j in runs(mask, False)
+            if 0 < i and j < len(mask) and (j - i) * FRAME >= min_pause]
 
 
 def _longest_run(mask: np.ndarray) -> int:
     """Length of the longest run of True."""
-    if not mask.any():
-        return 0
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return int((edges[1::2] - edges[0::2]).max())
+    r = runs(mask)
+    return int((r[:, 1] - r[:, 0]).max()) if len(r) else 0
 
 
 def _speech_spans(mask: np.ndarray, start: float, end: float) -> list[tuple[float, float]]:

@@ -44,6 +44,7 @@ from .chunks import _cover_speech, _run_middle
 from .decoding import _decode, _decoder
 from .model import FRAME, AlignSettings
 from .parallel import _Inline, _pool
+from .speech import runs
 
 #: A window is decoded at most this many times (twice the candidates each time).
 _TRIES = 2
@@ -259,43 +260,26 @@ def _estimate_cut(wmask: np.ndarray, side: str) -> int:
     (the half away from the side's start), or the window's far end."""
     n = len(wmask)
     lo, hi = (n // 2, n) if side == "head" else (0, n - n // 2)
-    best, i = None, lo
-    while i < hi:
-        if not wmask[i]:
-            j = i
-            while j < hi and not wmask[j]:
-                j += 1
-            if best is None or j - i > best[0]:
-                best = (j - i, (i + j) // 2)
-            i = j
-        else:
-            i += 1
-    if best is None:
+    silent = runs(wmask[lo:hi], False)
+    if not len(silent):
         return n if side == "head" else 0
-    return best[1]
+    i, j = silent[int(np.argmax(silent[:, 1] - silent[:, 0]))] + lo
+    return int((i + j) // 2)
 
 
 def _meeting(mask: np.ndarray, start: float, stop: float) -> tuple[float, float]:
     """Where the head's walk stops and the tail's begins: the middle of the
-    clip, or, when a silence of :data:`_LONG_SILENCE` or more lies in its
+    clip, or, when a silence of :data:`_LONG_SILENCE` or more begins in its
     middle third, that silence's edges (the two sides then meet in it and
     each walk ends on complete speech)."""
     middle = (start + stop) / 2
     a, b = int((start + (stop - start) / 3) / FRAME), int((stop - (stop - start) / 3) / FRAME)
-    best, i = None, a
-    while i < b:
-        if not mask[i]:
-            j = i
-            while j < len(mask) and not mask[j]:
-                j += 1
-            if (j - i) * FRAME >= _LONG_SILENCE and (best is None or j - i > best[1] - best[0]):
-                best = (i, j)
-            i = j
-        else:
-            i += 1
-    if best is None:
+    silent = runs(mask[a:], False)
+    silent = silent[(silent[:, 0] < b - a) & ((silent[:, 1] - silent[:, 0]) * FRAME >= _LONG_SILENCE)]
+    if not len(silent):
         return middle, middle
-    return best[0] * FRAME, best[1] * FRAME
+    i, j = silent[int(np.argmax(silent[:, 1] - silent[:, 0]))] + a
+    return int(i) * FRAME, int(j) * FRAME
 
 
 def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, settings: AlignSettings,
