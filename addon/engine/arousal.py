@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import prosody
+from . import prosody, smoothing
 from .audio import Audio
 from .errors import LipSyncError
 
@@ -224,12 +224,8 @@ def estimate(audio: Audio, tracks: prosody.Tracks | None = None, alignment=None,
     raw = _window_scores(fr, centres, window, model, feats)
     ok = np.isfinite(raw)
     raw = np.interp(centres, centres[ok], raw[ok]) if ok.any() else np.full(len(centres), value)
-    if smooth > 0 and len(raw) > 1:
-        sigma = smooth / hop
-        r = int(np.ceil(3 * sigma))
-        kern = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
-        padded = np.pad(raw, r, mode="edge")
-        raw = np.convolve(padded, kern / kern.sum(), mode="valid")
+    if smooth > 0:
+        raw = smoothing.gaussian(raw, smooth / hop)
     return Estimate(value, feats, centres, np.clip(raw, -1.0, 1.0))
 
 

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import smoothing
 from .pauses import settings as timing_settings
 from .phonemes import SILENCE, phone_class
 
@@ -191,19 +192,12 @@ def dominance(events: list[Event], times: np.ndarray, n_visemes: int, preset: di
 
 
 def smooth(curves: np.ndarray, fps: float, sigma_s: float) -> np.ndarray:
-    """Gaussian smoothing along time, sigma in seconds."""
+    """Gaussian smoothing along time (frames x columns), sigma in seconds;
+    curves too short or a sigma under 0.3 frames are returned as they are."""
     sigma = sigma_s * fps
     if sigma < 0.3 or len(curves) < 3:
         return curves
-    radius = int(np.ceil(3 * sigma))
-    x = np.arange(-radius, radius + 1)
-    kernel = np.exp(-0.5 * (x / sigma) ** 2)
-    kernel /= kernel.sum()
-    padded = np.pad(curves, ((radius, radius), (0, 0)), mode="edge")
-    out = np.empty_like(curves)
-    for j in range(curves.shape[1]):
-        out[:, j] = np.convolve(padded[:, j], kernel, mode="valid")
-    return out
+    return smoothing.gaussian(curves, sigma)
 
 
 def _envelope(times: np.ndarray, ev: Event, ramp: float, approach: float | None = None,

@@ -25,14 +25,16 @@ class Model:
                  strength: float = 0.0):
         self.clips, self.fps, self.sigma, self.free = clips, fps, sigma, free
         self.strength = strength
-        # The smoothing is linear in time: one matrix per clip smooths every column at once.
-        self.smoothers = [coarticulation.smooth(np.eye(len(c.times)), fps, sigma) for c in clips]
+
+    def _smooth(self, columns: np.ndarray) -> np.ndarray:
+        """The engine's curve smoothing (:func:`..coarticulation.smooth`)."""
+        return coarticulation.smooth(columns, self.fps, self.sigma)
 
     def blend(self, P: np.ndarray, want_jac: bool):
         """Smoothed blends C (frames, visemes) per clip, and dC/dq for the
         free log-parameters q per clip, as (frames, free, visemes)."""
         out, jacs = [], []
-        for c, K in zip(self.clips, self.smoothers):
+        for c in self.clips:
             par = P[c.cls]                                     # (segments, 4)
             d = c.times[None, :] - c.centres[:, None]
             dist = np.maximum(np.abs(d) - c.half[:, None], 0.0)
@@ -42,7 +44,7 @@ class Model:
             D = par[:, 0:1] * np.exp(-rate * dc)
             S = np.maximum(D.sum(axis=0), 1e-300)
             C = (D.T @ c.targets) / S[:, None]
-            Cs = (K @ C) * c.rest[:, None]
+            Cs = self._smooth(C) * c.rest[:, None]
             masks = _closure_masks(Cs, c.closures, self.strength)
             Cs = _apply(Cs, masks, True)
             capped = []   # (frames, viseme) held at a closure cap: no derivative there
@@ -64,7 +66,8 @@ class Model:
                 if m.any():
                     g = G[p][m]
                     R[:, i, :] = (g.T @ c.targets[m] - C * g.sum(axis=0)[:, None]) / S[:, None]
-            R = (K @ R.reshape(len(c.times), -1)).reshape(R.shape) * c.rest[:, None, None]
+            # The smoothing is linear, so the derivative of the smoothed blend is the smoothed derivative.
+            R = self._smooth(R.reshape(len(c.times), -1)).reshape(R.shape) * c.rest[:, None, None]
             R = _apply(R, masks, False)
             for frames, v in capped:
                 R[frames, :, v] = 0.0
