@@ -103,3 +103,24 @@ def test_rules_delete_short_h_and_t():
     al.phones[2].start = 0.5
     v, times, c = run(al, "rules", 100)
     assert c[:, v.index("GK")].max() > 0.3
+
+
+def test_gaussian_smoothing_matches_a_convolution_column_by_column():
+    from addon.engine.smoothing import gaussian
+
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(200, 7))
+    sigma = 2.6
+    radius = int(np.ceil(3 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    kernel /= kernel.sum()
+    want = np.stack([np.convolve(np.pad(x[:, j], radius, mode="edge"), kernel, mode="valid")
+                     for j in range(x.shape[1])], axis=1)
+    got = gaussian(x, sigma)
+    assert got.shape == x.shape
+    assert np.allclose(got, want, atol=1e-12)
+    # 1-D input, a constant stays constant at the edges, and the input is not changed.
+    ramp = np.linspace(0.0, 1.0, 50)
+    assert gaussian(ramp, sigma).shape == ramp.shape
+    assert np.allclose(gaussian(np.full(30, 0.4), sigma), 0.4)
+    assert np.allclose(gaussian(x, sigma), got) and not np.shares_memory(gaussian(x, 0.0), x)
