@@ -161,3 +161,32 @@ def test_batch_honours_inline_tags(tmp_path, fixtures):
     assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
     assert [e["emotion"] for e in doc["emotions"]] == ["neutral", "sad"]
     assert doc["emotions"][1]["time"] == doc["words"][2]["start"]
+
+
+def test_batch_emotion_fade_option_reaches_every_line(tmp_path, fixtures):
+    import shutil
+
+    shutil.copy(fixtures / "bob_map.wav", tmp_path / "bob_map.wav")
+    (tmp_path / "m.csv").write_text('audio,text\nbob_map.wav,"Bob bought [angry] a map."\n')
+    assert cli.main(["batch", str(tmp_path / "m.csv"), "--emotion-fade", "0.05", "--quiet"]) == 0
+    doc = json.loads((tmp_path / "bob_map.json").read_text())
+    want = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.", emotion_fade=0.05)
+    start, end = doc["emotions"][1]["fade"]
+    assert end - start == pytest.approx(0.05)
+    assert doc == json.loads(json.dumps(want.to_dict(), separators=(",", ":")))
+    default = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.")
+    assert not np.allclose(default.curves, want.curves)     # the option changed the animation
+
+
+@pytest.mark.parametrize("command", ["analyze", "batch"])
+@pytest.mark.parametrize("option, value, says", [("--workers", "-2", "--workers"),
+                                                 ("--emotion-fade", "-1", "--emotion-fade"),
+                                                 ("--emotion-fade", "nan", "--emotion-fade")])
+def test_cli_option_checks_are_one_line_errors(command, option, value, says, tmp_path, capsys, fixtures):
+    (tmp_path / "m.csv").write_text("audio,text\n" + str(fixtures / "bob_map.wav") + ",Bob\n")
+    args = (["analyze", str(fixtures / "bob_map.wav"), "--text", "Bob", "--json", str(tmp_path / "o.json")]
+            if command == "analyze" else ["batch", str(tmp_path / "m.csv"), "--out", str(tmp_path / "out")])
+    assert cli.main(args + [option, value]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and says in err and err.startswith("error:")
+    assert not (tmp_path / "o.json").exists() and not (tmp_path / "out").exists()

@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
+from .emotion_track import DEFAULT_FADE
 from .errors import LipSyncError
 
 #: Manifest columns this module reads; Blender's command also reads the last three.
@@ -55,6 +56,7 @@ class Defaults:
     fps: str = "30"
     coarticulation: str = "dominance"
     dictionary: str | None = None
+    emotion_fade: float = DEFAULT_FADE
 
 
 @dataclass
@@ -302,7 +304,7 @@ def analyze_line(line: Line, defaults: Defaults):
                    viseme_set=line.viseme_set or defaults.viseme_set,
                    emotion=line.emotion or defaults.emotion, coarticulation_model=defaults.coarticulation,
                    fps=line.fps or defaults.fps, dictionary=defaults.dictionary,
-                   settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
+                   emotion_fade=defaults.emotion_fade, settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
 
 
 def work(line: Line, defaults: Defaults) -> Outcome:

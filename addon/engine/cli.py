@@ -14,6 +14,32 @@ from .errors import LipSyncError
 from .text import read_text_file
 
 
+def _style_options(p: argparse.ArgumentParser, per_line: bool) -> None:
+    """How a line is animated: the options ``analyze`` and ``batch`` share.
+    For ``batch`` (``per_line``) they are defaults for lines that say nothing."""
+    unless = " for lines that name none" if per_line else ""
+    p.add_argument("--viseme-set", default=None,
+                   help=f"viseme set{unless}: built-in ({', '.join(visemes.builtin_names())}) or a .json file "
+                        "(default: default, or the set a learned preset was trained with)")
+    p.add_argument("--emotion", default="neutral",
+                   help=f"emotion preset{unless}: built-in ({', '.join(presets.builtin_names())}) or a .json file "
+                        "(default: neutral)")
+    p.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
+    p.add_argument("--emotion-fade", type=float, default=DEFAULT_FADE, metavar="SECONDS",
+                   help=f"cross-fade of an inline emotion tag such as [angry] (default: {DEFAULT_FADE:g})")
+    p.add_argument("--fps", default="30",
+                   help=f"frames per second{unless}: 24, 25, 30, 60, 23.976, 29.97, 24000/1001 ... (default: 30)")
+    p.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
+
+
+def _check_options(args) -> None:
+    """The checks argparse cannot make; a :class:`LipSyncError` names the option."""
+    if args.workers < 0:
+        raise LipSyncError("--workers must be 0 (one per core) or more")
+    if not args.emotion_fade >= 0 or args.emotion_fade == float("inf"):
+        raise LipSyncError(f"--emotion-fade must be 0 or more seconds, not {args.emotion_fade:g}")
+
+
 def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m addon",
                                  description="Emotive lip sync: audio + transcript -> viseme curves.")
@@ -26,16 +52,7 @@ def _parser() -> argparse.ArgumentParser:
     src.add_argument("--text", help="what is said, inline")
     a.add_argument("--alignment", metavar="FILE",
                    help="use this alignment instead of aligning: .TextGrid, Rhubarb .json/.tsv, Papagayo .pgo")
-    a.add_argument("--viseme-set", default=None,
-                   help=f"built-in ({', '.join(visemes.builtin_names())}) or a .json file (default: default, or "
-                        "the set a learned preset was trained with)")
-    a.add_argument("--emotion", default="neutral",
-                   help=f"built-in preset ({', '.join(presets.builtin_names())}) or a .json file (default: neutral)")
-    a.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
-    a.add_argument("--emotion-fade", type=float, default=DEFAULT_FADE, metavar="SECONDS",
-                   help=f"cross-fade of an inline emotion tag such as [angry] (default: {DEFAULT_FADE:g})")
-    a.add_argument("--fps", default="30", help="frames per second: 24, 25, 30, 60, 23.976, 29.97, 24000/1001 ...")
-    a.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
+    _style_options(a, per_line=False)
     a.add_argument("--workers", type=int, default=0, help="alignment processes (0: one per core)")
     a.add_argument("--json", metavar="OUT", help="write the result as JSON")
     a.add_argument("--csv", metavar="OUT", help="write the frame table as CSV")
@@ -93,6 +110,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         from .pipeline import check_output_path
+
+        _check_options(args)
 
         inputs = (args.audio, args.transcript, args.alignment)
         for flag, out in (("--json", args.json), ("--csv", args.csv)):
@@ -188,11 +207,7 @@ def _batch_parser(sub) -> None:
     b.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786")
     b.add_argument("--force", action="store_true", help="redo lines whose outputs are up to date")
     b.add_argument("--report", metavar="FILE", help="write a JSON report of every line")
-    b.add_argument("--emotion", default="neutral", help="preset for lines that name none (default: neutral)")
-    b.add_argument("--viseme-set", default=None, help="viseme set for lines that name none")
-    b.add_argument("--fps", default="30", help="frame rate for lines that name none (default: 30)")
-    b.add_argument("--coarticulation", choices=("dominance", "rules"), default="dominance")
-    b.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
+    _style_options(b, per_line=True)
     b.add_argument("--quiet", action="store_true", help="print nothing but failures")
 
 
@@ -200,10 +215,10 @@ def _batch(args) -> int:
     from . import batch
 
     formats = tuple(f for f in ("json", "csv") if getattr(args, f)) or ("json",)
-    defaults = batch.Defaults(args.emotion, args.viseme_set, args.fps, args.coarticulation, args.dictionary)
+    defaults = batch.Defaults(args.emotion, args.viseme_set, args.fps, args.coarticulation, args.dictionary,
+                              args.emotion_fade)
     try:
-        if args.workers < 0:
-            raise LipSyncError("--workers must be 0 (one per core) or more")
+        _check_options(args)
         report = batch.run(args.manifest, defaults, formats=formats, out_dir=args.out, workers=args.workers,
                            force=args.force, scheduler=args.scheduler)
     except LipSyncError as exc:
