@@ -246,17 +246,35 @@ def enforce_closures(curves: np.ndarray, times: np.ndarray, events: list[Event],
     if len(times) == 0:
         return curves
     out = curves
+    for lo, hi, v, weight, suppress, raise_ in closure_steps(times, events, ramp):
+        own = out[lo:hi, v].copy()
+        out[lo:hi] *= (1.0 - strength * suppress)[:, None]
+        out[lo:hi, v] = np.where(raise_ > 0, np.maximum(own, weight * raise_), own)
+    for v, (frames, cap) in closure_caps(times, events).items():
+        out[frames, v] = np.minimum(out[frames, v], cap)
+    return out
+
+
+def closure_steps(times: np.ndarray, events: list[Event], ramp: float = 0.03) -> list:
+    """Per /p b m f v/ event, in order, what :func:`enforce_closures` does
+    to the frames [lo, hi) around it: (lo, hi, viseme, weight, suppress,
+    raise), where on each frame the other visemes are scaled by
+    ``1 - strength * suppress`` and the viseme is raised to at least
+    ``weight * raise``.  The learner applies the same steps to the
+    derivatives of the curves."""
+    out = []
+    if len(times) == 0:
+        return out
     for ev in events:
         if ev.cls not in CLOSURE_CLASSES:
             continue
-        lo, hi, env = _envelope(times, ev, ramp, approach=1.0, margin=0.0)
-        own = out[lo:hi, ev.viseme].copy()
-        out[lo:hi] *= (1.0 - strength * env)[:, None]
-        out[lo:hi, ev.viseme] = own
-        lo, hi, env = _envelope(times, ev, ramp)
-        np.maximum(out[lo:hi, ev.viseme], ev.weight * env, out=out[lo:hi, ev.viseme])
-    for v, (frames, cap) in closure_caps(times, events).items():
-        out[frames, v] = np.minimum(out[frames, v], cap)
+        lo1, hi1, suppress = _envelope(times, ev, ramp, approach=1.0, margin=0.0)
+        lo2, hi2, raise_ = _envelope(times, ev, ramp)
+        lo, hi = min(lo1, lo2), max(hi1, hi2)
+        s, r = np.zeros(hi - lo), np.zeros(hi - lo)
+        s[lo1 - lo:hi1 - lo] = suppress
+        r[lo2 - lo:hi2 - lo] = raise_
+        out.append((int(lo), int(hi), ev.viseme, float(ev.weight), s, r))
     return out
 
 

@@ -195,9 +195,7 @@ def render(al, tracks, base: dict, changes: list[Change], vset, model: str, fps:
             raise LipSyncError(f"preset {p.get('name', '')!r} uses the {viseme_set_for(p, viseme_set).name!r} "
                                f"viseme set, the line's others {vset.name!r}: they cannot be mixed in one line")
         wp = p["weights"]
-        pr = tuple(wp["pitch_range"]) if isinstance(wp["pitch_range"], list) else wp["pitch_range"]
-        stats = prosody.clip_stats(tracks, wp["intensity_floor_db"], pr)
-        pitch, inten = prosody.phoneme_means(tracks, spans, stats)
+        stats, pitch, inten = prosody.for_preset(tracks, spans, wp)
         follow = estimate.at(centres) if estimate is not None and wp.get("follow_voice", 0.0) > 0 else None
         w, times, out = curves(al, pitch, inten, stats, vset, p, model, fps, arousal=follow)
         results.append((pitch, inten, w, out, stats))

@@ -59,6 +59,11 @@ def rest_envelope(times: np.ndarray, pauses: list[tuple[float, float]], ramp: fl
 def force_rest(curves: np.ndarray, times: np.ndarray, spans: list[tuple[float, float]],
                duration: float) -> np.ndarray:
     """``curves`` with every pause of the phone ``spans`` at rest (module docstring)."""
+    return curves * rest_for(times, spans, duration)[:, None]
+
+
+def rest_for(times: np.ndarray, spans: list[tuple[float, float]], duration: float) -> np.ndarray:
+    """:func:`rest_envelope` of the pauses between the phone ``spans``, with
+    the ``rest`` settings of ``data/timing.json``."""
     cfg = settings()["rest"]
-    env = rest_envelope(times, gaps(spans, duration, cfg["min_pause"]), cfg["ramp"], duration)
-    return curves * env[:, None]
+    return rest_envelope(times, gaps(spans, duration, cfg["min_pause"]), cfg["ramp"], duration)

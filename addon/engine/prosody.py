@@ -109,6 +109,17 @@ def clip_stats(tracks: Tracks, intensity_floor_db: float = 50.0,
     return ClipStats(float(f_min), float(f_mean), float(f_max), float(i_min), i_mean, i_max, has_voice)
 
 
+def for_preset(tracks: Tracks, spans: list[tuple[float, float]], weights: dict
+               ) -> tuple[ClipStats, np.ndarray, np.ndarray]:
+    """The clip's extremes (:func:`clip_stats`) as a preset's ``weights``
+    section reads them (its ``intensity_floor_db`` and ``pitch_range``), and
+    each span's mean pitch and intensity (:func:`phoneme_means`)."""
+    pr = weights["pitch_range"]
+    stats = clip_stats(tracks, weights["intensity_floor_db"], tuple(pr) if isinstance(pr, list) else pr)
+    pitch, inten = phoneme_means(tracks, spans, stats)
+    return stats, pitch, inten
+
+
 def phoneme_means(tracks: Tracks, spans: list[tuple[float, float]], stats: ClipStats
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Mean pitch and intensity over each (start, end) span.

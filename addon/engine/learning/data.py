@@ -55,7 +55,7 @@ class Prepared:
     raw_t: np.ndarray = None     # the measured tracks as given (channels in fit order)
     raw_y: np.ndarray = None
     closure: np.ndarray = None   # (frames,) True inside /p b m/
-    closures: list = None        # the engine's closure step: (lo, hi, viseme, weight, suppress, raise)
+    closures: list = None        # the engine's closure step: coarticulation.closure_steps
     rest: np.ndarray = None      # (frames,) 0 where a pause forces the rest pose (pauses.rest_envelope)
     caps: dict = None            # closure viseme -> (vowel frames, most it may show): closure_caps
     duration: float = None       # s, the span the model frames cover
@@ -69,32 +69,12 @@ class Prepared:
         return y
 
 
-def _closures(events, times: np.ndarray) -> list:
-    """The engine's closure step per /p b m f v/ (:func:`..coarticulation.enforce_closures`):
-    frames [lo, hi), the viseme, its weight, how strongly the other visemes
-    are suppressed on each frame and how far the viseme is raised there."""
-    out = []
-    for ev in events:
-        if ev.cls in coarticulation.CLOSURE_CLASSES and len(times):
-            lo1, hi1, suppress = coarticulation._envelope(times, ev, 0.03, approach=1.0, margin=0.0)
-            lo2, hi2, raise_ = coarticulation._envelope(times, ev, 0.03)
-            lo, hi = min(lo1, lo2), max(hi1, hi2)
-            s, r = np.zeros(hi - lo), np.zeros(hi - lo)
-            s[lo1 - lo:hi1 - lo] = suppress
-            r[lo2 - lo:hi2 - lo] = raise_
-            out.append((int(lo), int(hi), ev.viseme, float(ev.weight), s, r))
-    return out
-
-
 def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[str]) -> Prepared:
     from ..pipeline import frame_times, phoneme_weights, rest_target
 
     snd, al = clip.audio, clip.alignment
     tracks = prosody.analyse(snd)
-    wp = preset["weights"]
-    pr = tuple(wp["pitch_range"]) if isinstance(wp["pitch_range"], list) else wp["pitch_range"]
-    stats = prosody.clip_stats(tracks, wp["intensity_floor_db"], pr)
-    pitch, inten = prosody.phoneme_means(tracks, [(p.start, p.end) for p in al.phones], stats)
+    stats, pitch, inten = prosody.for_preset(tracks, [(p.start, p.end) for p in al.phones], preset["weights"])
     w = phoneme_weights(al, pitch, inten, stats, vset, preset)
     spans = [(p.phone, p.start, p.end) for p in al.phones]
     events = coarticulation.build_events(spans, w, vset, preset["rules"]["diphthong_split"])
@@ -115,13 +95,11 @@ def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[s
     for i, s in enumerate(segs):
         if s.viseme >= 0:
             targets[i, s.viseme] = s.weight
-    cfg = pauses.settings()["rest"]
-    rest = pauses.rest_envelope(times, pauses.gaps([(p.start, p.end) for p in al.phones], duration,
-                                                   cfg["min_pause"]), cfg["ramp"], duration)
+    rest = pauses.rest_for(times, [(p.start, p.end) for p in al.phones], duration)
     return Prepared(clip.name, times, y, np.array([s.centre for s in segs]),
                     preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats,
-                    np.asarray(clip.times, float), raw_y, closure, _closures(events, times), rest,
+                    np.asarray(clip.times, float), raw_y, closure, coarticulation.closure_steps(times, events), rest,
                     coarticulation.closure_caps(times, events), duration)
 
 
