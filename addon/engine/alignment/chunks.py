@@ -11,7 +11,7 @@ import numpy as np
 
 from ..audio import Audio
 from .decoding import _decode, _decoder
-from .model import FRAME, AlignSettings
+from .model import FRAME, AlignSettings, word_frames
 from .parallel import _Inline, _pool
 from .speech import _longest_run, pauses
 
@@ -46,7 +46,7 @@ def _cover_speech(decoder, pcm, mask, side, kind, used, payload, lo, hi, first):
     fits poorly.  If much of the chunk's speech lies outside the words found,
     force more words (as many as fit at the speaking rate measured on the
     words found) and keep the first count that aligns."""
-    frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
+    frames = word_frames(kind, payload)
     if side == "head":
         uncovered = float(mask[frames[-1][1]:].sum()) * FRAME
     else:
@@ -124,7 +124,7 @@ def _trusted(kind, payload, mask: np.ndarray, side: str, swallowed: float = 1.0,
     its first word is checked too (used in the middle, whose ends are the
     edges of words already placed; at the clip's ends breath and noise pass
     for speech too often)."""
-    frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
+    frames = word_frames(kind, payload)
     n = len(frames)
     limit = int(round(swallowed / FRAME))
     before = mask[:frames[0][0]] if side == "head" else mask[frames[-1][1]:]
@@ -168,7 +168,7 @@ def _run_middle(audio: Audio, t0: float, t1: float, prons: list[list[str]], firs
                 continue
             payload = payload[:keep] if mode == "head" else payload[used - keep:]
             used = keep
-        frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
+        frames = word_frames(kind, payload)
         if mode == "head":
             out.append((first + lo, first + lo + used, a, b, kind, payload))
             a, lo = a + frames[-1][1] * FRAME, lo + used

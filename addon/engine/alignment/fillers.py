@@ -22,6 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from .estimate import _estimate
+from .model import word_frames
 
 #: The acoustic model's filler phone for speech sounds that are not words.
 FILLER = "+SPN+"
@@ -60,9 +61,8 @@ def has_hesitation(prons: Sequence[Sequence[str]]) -> bool:
 
 def uncovered(kind: str, payload, mask: np.ndarray) -> int:
     """Frames of speech (``mask``) that no decoded word lies on."""
-    frames = payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
     covered = np.zeros(len(mask), bool)
-    for a, b in frames:
+    for a, b in word_frames(kind, payload):
         covered[a:b] = True
     return int((mask & ~covered).sum())
 

@@ -19,6 +19,12 @@ def typical_duration(phone: str) -> float:
     return TYPICAL_DURATION["vowel" if phone in VOWELS else "consonant"]
 
 
+def word_frames(kind: str, payload) -> list[tuple[int, int]]:
+    """(first frame, end frame) of every word of a decode: its ``payload``
+    holds word frames ("words") or each word's phones ("phones")."""
+    return payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
+
+
 @dataclass
 class AlignSettings:
     """Knobs of the aligner.  The defaults were measured on real speech."""

@@ -102,20 +102,10 @@ def _longest_run(mask: np.ndarray) -> int:
 
 
 def _speech_spans(mask: np.ndarray, start: float, end: float) -> list[tuple[float, float]]:
+    """The runs of speech in ``mask`` between ``start`` and ``end`` s, as
+    (start, end) s; the whole stretch if it holds none."""
     a, b = int(start / FRAME), int(math.ceil(end / FRAME))
-    sub = mask[a:b]
-    spans = []
-    i = 0
-    while i < len(sub):
-        if sub[i]:
-            j = i
-            while j < len(sub) and sub[j]:
-                j += 1
-            spans.append(((a + i) * FRAME, (a + j) * FRAME))
-            i = j
-        else:
-            i += 1
-    return spans or [(start, end)]
+    return [((a + i) * FRAME, (a + j) * FRAME) for i, j in runs(mask[a:b]).tolist()] or [(start, end)]
 
 
 def unspoken_speech(mask: np.ndarray, words: list[AlignedWord], margin: float = 0.2

@@ -42,7 +42,7 @@ import numpy as np
 from ..audio import Audio
 from .chunks import _cover_speech, _run_middle
 from .decoding import _decode, _decoder
-from .model import FRAME, AlignSettings
+from .model import FRAME, AlignSettings, word_frames
 from .parallel import _Inline, _pool
 from .speech import runs
 
@@ -59,10 +59,6 @@ _TRAILING = 0.35
 #: The cut between the words kept and those decoded again lies this far
 #: into the window or further.
 _FAR = 0.5
-
-
-def _frames(kind, payload) -> list[tuple[int, int]]:
-    return payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
 
 
 def _cut(frames: list[tuple[int, int]], side: str, wmask: np.ndarray, guard: int) -> tuple[int, int] | None:
@@ -205,13 +201,13 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
             decoder = _decoder([prons[i] for i in window], window[0], settings)
             kind, used, payload = _decode(decoder, pcm, side, [f"w{i}" for i in window], side)
             if kind != "failed":
-                cut = _cut(_frames(kind, payload), side, wmask, guard)
+                cut = _cut(word_frames(kind, payload), side, wmask, guard)
                 if cut is None:
                     # The grammar search may stop early and call the speech
                     # after its last word silence: force more words.
                     kind, used, payload = _cover_speech(decoder, pcm, wmask, side, kind, used, payload,
                                                         0, size, window[0])
-                    cut = _cut(_frames(kind, payload), side, wmask, guard)
+                    cut = _cut(word_frames(kind, payload), side, wmask, guard)
                 if cut is not None:
                     got = (kind, used, payload, cut)
                     del decoder
@@ -309,8 +305,8 @@ def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, setting
             while pending:
                 _done, pending = concurrent.futures.wait(pending, timeout=0.5)
                 progress(reach.share())
-        heads, lo, ta = fut_h.result()
-        tails, hi, tb = fut_t.result()
+        heads, lo, _ = fut_h.result()
+        tails, hi, _ = fut_t.result()
     finally:
         runner.shutdown()
         del _SHARED[key]
