@@ -168,7 +168,7 @@ def test_long_clip_aligned_in_pieces_matches_one_pass(tmp_path, monkeypatch, lin
     one = align_file(path, text, settings=AlignSettings(split_above=1e9, stream_above=1e9))
     made = []
     choose = pieces._choose_cuts
-    monkeypatch.setattr(pieces, "_choose_cuts", lambda segs, n: made.append(choose(segs, n)) or made[-1])
+    monkeypatch.setattr(pieces, "_choose_cuts", lambda *a: made.append(choose(*a)) or made[-1])
     split = align_file(path, text, settings=AlignSettings(split_above=1.0, workers=2))
     assert len(made) == 1 and len(made[0]) == parts - 1
     assert [w.text for w in split.words] == [w.text for w in one.words]
@@ -186,21 +186,42 @@ def test_pieces_are_an_even_number_of_about_the_piece_length():
     assert [piece_count(d, settings) for d in (10.5, 20.0, 26.0, 45.0, 89.0)] == [2, 2, 4, 6, 12]
 
 
-def test_cuts_go_in_the_widest_pause_near_each_share_of_the_speech():
+def _words(pauses: dict[int, int], n: int = 10, length: int = 40) -> list[tuple[int, int]]:
+    """Frames of ``n`` words of ``length`` frames, 5 frames apart except
+    ``pauses[i]`` frames after word i."""
+    segs, t = [], 0
+    for i in range(n):
+        segs.append((t, t + length))
+        t += length + pauses.get(i, 5)
+    return segs
+
+
+def test_cuts_go_in_a_real_pause_near_each_share_of_the_clip():
     from addon.engine.alignment.pieces import _choose_cuts
 
     # Ten words of 40 frames; pauses of 5 frames, but 25 after word 3 and
     # 15 after word 7 (both within half a piece of the quarter marks).
-    segs, t = [], 0
-    for i in range(10):
-        segs.append((t, t + 40))
-        t += 40 + {2: 25, 6: 15}.get(i, 5)
-    cuts = _choose_cuts(segs, 4)
+    segs = _words({2: 25, 6: 15})
+    cuts = _choose_cuts(segs, 4, segs[-1][1])
     assert [k for k, _ in cuts] == [3, 5, 7]
     assert cuts[0][1] == pytest.approx((segs[2][1] + segs[3][0]) / 2 * 0.01)
     assert all(segs[k - 1][1] * 0.01 < c < segs[k][0] * 0.01 for k, c in cuts)
     # At least two words a piece; a clip of three words is not cut at all.
-    assert len(_choose_cuts(segs[:5], 4)) == 1 and _choose_cuts(segs[:3], 4) is None
+    assert len(_choose_cuts(segs[:5], 4, segs[4][1])) == 1 and _choose_cuts(segs[:3], 4, segs[2][1]) is None
+
+
+def test_cuts_keep_the_pieces_even_rather_than_chase_the_widest_pause():
+    from addon.engine.alignment.pieces import _choose_cuts
+
+    # A 100-frame pause after word 2 and a 15-frame one after word 4, both
+    # within half a piece of the clip's middle (frame 275).  The nearer, even
+    # cut wins: the wide pause would leave pieces of 3 and 7 words.
+    segs = _words({2: 100, 4: 15})
+    assert [k for k, _ in _choose_cuts(segs, 2, segs[-1][1])] == [5]
+    # Silence costs the passes as much as speech: after 400 frames of it, the
+    # clip's middle lies before the words' middle and the wide pause is cut.
+    late = [(a + 400, b + 400) for a, b in segs]
+    assert [k for k, _ in _choose_cuts(late, 2, late[-1][1])] == [3]
 
 
 def test_chunked_fallback_when_the_one_pass_fails(tmp_path, monkeypatch):

@@ -30,27 +30,39 @@ def _segments(audio: Audio, prons: list[list[str]], settings: AlignSettings) -> 
     return None
 
 
-def _choose_cuts(segs: list[tuple[int, int]], parts: int) -> list[tuple[int, float]] | None:
-    """Where to cut words with frames ``segs`` into ``parts`` pieces (at
-    most one per two words): each cut in the middle of the pause between two
-    words nearest its share of the speech (the widest pause, up to 0.3 s,
-    within half a piece of it).  (words before the cut, cut time) per cut,
+# A cut goes in the middle of a pause between two words.  Pauses of at least
+# CUT_PAUSE frames are preferred (each piece then starts and ends in
+# silence); a wider one, counted up to WIDE_PAUSE frames, may lie up to
+# PAUSE_WORTH frames further from the cut's even share of the clip per frame
+# of extra width.
+CUT_PAUSE = 10
+WIDE_PAUSE = 30
+PAUSE_WORTH = 2
+
+
+def _choose_cuts(segs: list[tuple[int, int]], parts: int, frames: int) -> list[tuple[int, float]] | None:
+    """Where to cut words with frames ``segs``, in a clip of ``frames``
+    frames, into ``parts`` pieces (at most one per two words).  A piece's
+    passes cost about its length times its words, silence included, so each
+    cut aims at its even share of the whole clip and the pieces keep both
+    cores equally busy; it goes in the pause that scores best by
+    :data:`CUT_PAUSE`, :data:`WIDE_PAUSE` and :data:`PAUSE_WORTH` within
+    half a piece of that share.  (words before the cut, cut time) per cut,
     in order, possibly fewer than ``parts - 1``; None if no cut is made."""
     parts = min(parts, len(segs) // 2)
     if parts < 2:
         return None
-    lo, hi = segs[0][0], segs[-1][1]
-    reach = (hi - lo) / parts / 2
+    reach = frames / parts / 2
     cuts: list[tuple[int, float]] = []
     for j in range(1, parts):
-        target = lo + (hi - lo) * j / parts
+        target = frames * j / parts
         best = None
         for i in range(1, len(segs)):
             gap = segs[i][0] - segs[i - 1][1]
             centre = (segs[i][0] + segs[i - 1][1]) / 2
             if abs(centre - target) > reach or (cuts and i <= cuts[-1][0]):
                 continue
-            score = (min(gap, 30), -abs(centre - target))
+            score = (gap >= CUT_PAUSE, PAUSE_WORTH * min(gap, WIDE_PAUSE) - abs(centre - target))
             if best is None or score > best[0]:
                 best = (score, i, centre)
         if best is not None:
@@ -64,7 +76,8 @@ def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings,
     at a time, the longest first.  Returns False, having placed nothing, if
     any pass fails."""
     segs = _segments(audio, prons, settings)
-    cuts = _choose_cuts(segs, piece_count(audio.duration, settings)) if segs else None
+    frames = int(round(audio.duration / FRAME))
+    cuts = _choose_cuts(segs, piece_count(audio.duration, settings), frames) if segs else None
     if cuts is None:
         pool.shutdown()
         return False
