@@ -21,18 +21,21 @@ def reduce(values: np.ndarray, tolerance: float) -> np.ndarray:
         return np.arange(n)
     keep = np.zeros(n, dtype=bool)
     keep[0] = keep[-1] = True
-    stack = [(0, n - 1)]
-    while stack:
-        a, b = stack.pop()
-        if b - a < 2:
-            continue
-        x = np.arange(a + 1, b)
+    x = np.arange(n)
+    # Every span between kept keys is split at once, at its first frame
+    # farthest from the straight line over it, until none strays further
+    # than ``tolerance``: the keys of the recursive algorithm, in a few
+    # passes over the whole array instead of one small pass per key.
+    while True:
+        idx = np.flatnonzero(keep)
+        span = np.minimum(np.searchsorted(idx, x, side="right") - 1, len(idx) - 2)
+        a, b = idx[span], idx[span + 1]
         line = y[a] + (y[b] - y[a]) * (x - a) / (b - a)
-        err = np.abs(y[a + 1:b] - line)
-        k = int(np.argmax(err))
-        if err[k] > tolerance:
-            m = a + 1 + k
-            keep[m] = True
-            stack.append((a, m))
-            stack.append((m, b))
-    return np.flatnonzero(keep)
+        err = np.abs(y - line)
+        err[keep] = 0.0
+        worst = np.maximum.reduceat(err, idx[:-1])[span]
+        split = np.flatnonzero((err == worst) & (worst > tolerance))
+        if not len(split):
+            return idx
+        _, first = np.unique(span[split], return_index=True)
+        keep[split[first]] = True
