@@ -249,6 +249,35 @@ def test_key_reduction_stays_within_tolerance(scene):
     assert total_reduced < 0.5 * total_full
 
 
+def test_curve_evaluated_in_bulk_is_the_curve_blender_draws(scene):
+    # The key reduction checks whole curves against the motion with its own
+    # evaluation of Blender's Bezier, linear and constant segments.
+    keying = import_module(MODULE + ".blender.keying")
+    ada = bpy.data.objects["Ada"]
+    key = ada.data.shape_keys
+    fc = _engine_compat().ensure_fcurve(key, 'key_blocks["MBP"].value', "Ada_test", "test")
+    rng = np.random.default_rng(3)
+    frames = np.array([-20.0, 1, 2, 5, 6, 14, 15, 40, 41, 43, 80, 81.5, 120])
+    fc.keyframe_points.add(len(frames))
+    fc.keyframe_points.foreach_set("co", np.column_stack([frames, rng.random(len(frames))]).ravel())
+    for i, k in enumerate(fc.keyframe_points):
+        k.interpolation = ("BEZIER", "BEZIER", "LINEAR", "BEZIER", "CONSTANT")[i % 5]
+    fc.update()
+    # Long free handles crossing their neighbours: Blender shortens them.
+    k = fc.keyframe_points[7]
+    k.handle_left_type = k.handle_right_type = "FREE"
+    k.handle_left, k.handle_right = (k.co.x - 30, k.co.y + 0.8), (k.co.x + 30, k.co.y - 0.9)
+    at = np.arange(-25.0, 125.0, 0.25)
+    blender = np.array([fc.evaluate(f) for f in at])
+    assert np.abs(keying.drawn(fc, at) - blender).max() < 1e-5
+    # Easing that is not Bezier, or a modifier: Blender evaluates it.
+    fc.keyframe_points[3].interpolation = "ELASTIC"
+    assert np.abs(keying.drawn(fc, at) - np.array([fc.evaluate(f) for f in at])).max() < 1e-9
+    fc.keyframe_points[3].interpolation = "BEZIER"
+    fc.modifiers.new("NOISE")
+    assert np.abs(keying.drawn(fc, at) - np.array([fc.evaluate(f) for f in at])).max() < 1e-9
+
+
 # --- audio sources ---------------------------------------------------------------
 
 def test_audio_file_in_other_formats_and_packed_sound(scene, tmp_path):
