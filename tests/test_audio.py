@@ -82,7 +82,7 @@ def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width
     from addon.engine import wavstream
 
     path = write_pcm(tmp_path, rate, width, channels, wavstream.LONG + 1)
-    streamed = wavstream.read_long_wav(path)
+    streamed = wavstream.read_wav(path)
     assert streamed is not None
     praat = parselmouth.Sound(str(path))
     expected = audio.from_samples(praat.values, praat.sampling_frequency).samples
@@ -91,5 +91,5 @@ def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width
     raw = path.read_bytes()
     cut = tmp_path / "cut.wav"
     cut.write_bytes(raw[:len(raw) * 2 // 3])
-    assert wavstream.read_long_wav(cut) is None
+    assert wavstream.read_wav(cut) is None
     assert "cut short" in " ".join(audio.load(cut).notes)

@@ -99,19 +99,18 @@ def split_tags(text: str, known: Callable[[str], bool] = builtin_known, names: l
             if explicit:
                 raise TranscriptError(f"emotion tag {m.group()!r} in {where} names no preset")
             continue
-        if _is_known(name, known):
-            pass
-        elif not name.lower().endswith(".json") and _is_known(name.lower(), known):
-            name = name.lower()
-        elif explicit:
-            raise TranscriptError(f"emotion tag {m.group()!r} in {where}: {name!r} is not a preset "
-                                  f"(presets: {', '.join(names)})")
-        else:
-            near = difflib.get_close_matches(name.lower(), names, n=1, cutoff=0.8) if " " not in name else []
-            if near:
-                raise TranscriptError(f"emotion tag {m.group()!r} in {where} is not a preset; did you mean "
-                                      f"[{near[0]}]? (other bracketed text is a stage direction)")
-            continue  # a stage direction: normalize() drops it
+        if not _is_known(name, known):
+            if not name.lower().endswith(".json") and _is_known(name.lower(), known):
+                name = name.lower()
+            elif explicit:
+                raise TranscriptError(f"emotion tag {m.group()!r} in {where}: {name!r} is not a preset "
+                                      f"(presets: {', '.join(names)})")
+            else:
+                near = difflib.get_close_matches(name.lower(), names, n=1, cutoff=0.8) if " " not in name else []
+                if near:
+                    raise TranscriptError(f"emotion tag {m.group()!r} in {where} is not a preset; did you mean "
+                                          f"[{near[0]}]? (other bracketed text is a stage direction)")
+                continue  # a stage direction: normalize() drops it
         before = "".join(pieces) + text[last:m.start()]
         try:
             count = len(normalize(before)) if before.strip() else 0

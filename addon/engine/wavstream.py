@@ -134,20 +134,10 @@ def _plain_pcm(path: str) -> tuple[int, int, int, int] | None:
     return n, rate, width, channels
 
 
-def read_long_wav(path: str | os.PathLike) -> Audio | None:
-    """The file as 16 kHz mono :class:`Audio` whose samples are read from
-    the file as they are needed (:class:`WavSamples`), or None when it is
-    not a long, complete, plain PCM WAV file (Praat reads it then)."""
-    path = os.fspath(path)
-    head = _plain_pcm(path)
-    if head is None or head[0] / head[1] < LONG:
-        return None
-    return Audio(WavSamples(path, *head), MODEL_RATE)
-
-
 def read_wav(path: str | os.PathLike) -> Audio | None:
     """A complete plain PCM WAV file as 16 kHz mono :class:`Audio`: a long
-    one left on disk (:func:`read_long_wav`), a shorter one read whole with
+    one (:data:`LONG` s or more) left on disk, its samples read from the file
+    as they are needed (:class:`WavSamples`), a shorter one read whole with
     the samples Praat would give, without loading Praat (the pitch tracker
     may be loading it on the other core meanwhile).  None for anything else."""
     path = os.fspath(path)

@@ -15,8 +15,8 @@ speech poorly.  This module therefore:
    :attr:`AlignSettings.split_above` (10 s) is cut into an even number of
    pieces of about 7 s, aligned two at a time in two processes: a quick
    forced word pass over the whole clip, scoring every third frame only,
-   finds the pauses between words nearest the cuts' shares of the speech, and
-   the cuts go there (a pass's cost grows faster than its length, so four
+   finds the pauses between words near the cuts' even shares of the clip,
+   and the cuts go there (a pass's cost grows faster than its length, so four
    pieces cost less than two halves).  A clip longer than
    :attr:`AlignSettings.stream_above` (90 s) is aligned window by
    window instead, so that memory stays bounded (:mod:`.stream`);
