@@ -491,16 +491,6 @@ PRESETS = {
 }
 
 
-@pytest.mark.parametrize("case", sorted(PRESETS))
-def test_malformed_preset_names_file_and_field(tmp_path, case):
-    content, words = PRESETS[case]
-    path = tmp_path / "p.json"
-    path.write_bytes(content)
-    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--emotion", path,
-                         "--json", tmp_path / "o.json", cwd=tmp_path)
-    assert_error(rc, so, se, path, *words)
-
-
 def test_preset_base_file_beside_the_preset(tmp_path):
     from addon.engine import presets
 
@@ -529,13 +519,17 @@ VISEME_SETS = {
 }
 
 
-@pytest.mark.parametrize("case", sorted(VISEME_SETS))
-def test_malformed_viseme_set_names_file_and_field(tmp_path, case):
-    content, words = VISEME_SETS[case]
-    path = tmp_path / "v.json"
+DATA_FILES = {**{("--emotion", "p.json", case): v for case, v in PRESETS.items()},
+              **{("--viseme-set", "v.json", case): v for case, v in VISEME_SETS.items()}}
+
+
+@pytest.mark.parametrize("flag, name, case", sorted(DATA_FILES))
+def test_malformed_data_file_names_file_and_field(tmp_path, flag, name, case):
+    content, words = DATA_FILES[flag, name, case]
+    path = tmp_path / name
     path.write_bytes(content)
-    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--viseme-set", path,
-                         "--json", tmp_path / "o.json")
+    rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", flag, path,
+                         "--json", tmp_path / "o.json", cwd=tmp_path)
     assert_error(rc, so, se, path, *words)
 
 

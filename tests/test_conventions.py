@@ -164,3 +164,26 @@ def test_a_studio_convention_file_is_loaded_and_replaces_a_builtin(tmp_path, mon
 def test_malformed_convention_names_the_field(doc, field):
     with pytest.raises(PresetError, match=f"field '{field}'"):
         conventions.from_dict(doc, "studio.json")
+
+
+STUDIO = {"name": "studio", "label": "Our rigs", "viseme_set": "oculus", "visemes": {"PP": ["lips_shut"]}}
+
+
+def test_a_convention_file_saved_with_a_byte_order_mark_loads(tmp_path):
+    path = tmp_path / "studio.json"
+    path.write_bytes(b"\xef\xbb\xbf" + json.dumps(STUDIO).encode("utf-8"))   # Notepad's UTF-8
+    assert conventions.load(path).label == "Our rigs"
+
+
+@pytest.mark.parametrize("content, words", [
+    (b'{\n  "name": "studio",\n}\n', ["(file)", "not valid JSON", "line 3, column 1"]),
+    (b'["lips_shut"]', ["(top level)", "JSON object"]),
+    ('{"label": "Caf\xe9"}'.encode("latin-1"), ["(file)", "not UTF-8", "byte 14"]),
+])
+def test_a_broken_convention_file_in_the_studio_folder_is_named(tmp_path, monkeypatch, content, words):
+    (tmp_path / "studio.json").write_bytes(content)
+    monkeypatch.setenv(conventions.ENV_DIRS, str(tmp_path))
+    with pytest.raises(PresetError) as err:
+        conventions.load_all()
+    for w in [str(tmp_path / "studio.json")] + words:
+        assert w in str(err.value)

@@ -60,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .datafile import read_object
 from .errors import PresetError
 from .visemes import VisemeSet
 
@@ -202,11 +203,7 @@ def load(path: str | os.PathLike) -> Convention:
         path = DATA / f"{path}.json"
     if not path.is_file():
         raise PresetError(str(path), "(file)", "does not exist")
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PresetError(str(path), "(file)", f"is not valid JSON: {exc}") from None
-    return from_dict(doc, str(path))
+    return from_dict(read_object(path), str(path))
 
 
 def load_all(extra_dirs: list[str | os.PathLike] = ()) -> list[Convention]:

@@ -47,6 +47,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from .datafile import read_object
 from .errors import PresetError
 from .phonemes import CLASSES
 
@@ -187,18 +188,6 @@ def merge(base: dict, over: dict) -> dict:
     return out
 
 
-def _read(path: Path) -> dict:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8-sig"))
-    except UnicodeDecodeError as exc:
-        raise PresetError(str(path), "(file)", f"is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
-    except json.JSONDecodeError as exc:
-        raise PresetError(str(path), "(file)", f"is not valid JSON: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
-    except OSError as exc:
-        raise PresetError(str(path), "(file)", f"cannot be read: {exc.strerror}") from None
-    if not isinstance(doc, dict):
-        raise PresetError(str(path), "(top level)", "must be a JSON object")
-    return doc
 
 
 def resolve(doc: dict, source: str, _depth: int = 0) -> dict:
@@ -218,7 +207,7 @@ def resolve(doc: dict, source: str, _depth: int = 0) -> dict:
             base_path = _locate(base_name, source)
         except PresetError as exc:
             raise PresetError(source, "base", f"names {base_name!r}, which {exc.problem}") from None
-        base = resolve(_read(base_path), str(base_path), _depth + 1)
+        base = resolve(read_object(base_path), str(base_path), _depth + 1)
         full = merge(base, {k: v for k, v in doc.items() if k != "base"})
     full.pop("base", None)
     return validate(full, source)
@@ -240,7 +229,7 @@ def _locate(name_or_path: str | os.PathLike, source: str = "preset") -> Path:
 def load(name_or_path: str | os.PathLike) -> dict:
     """A built-in preset by name (``angry``) or a preset file by path."""
     path = _locate(name_or_path)
-    return resolve(_read(path), str(path))
+    return resolve(read_object(path), str(path))
 
 
 def save(preset: dict, path: str | os.PathLike) -> None:

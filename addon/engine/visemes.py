@@ -24,13 +24,13 @@ form, passed by path.
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .datafile import read_object
 from .errors import PresetError
 from .phonemes import PHONEMES, SILENCE
 
@@ -88,17 +88,7 @@ def load(name_or_path: str | os.PathLike) -> VisemeSet:
                               f"is not a viseme set; built-in sets: {', '.join(builtin_names())}")
     if not path.is_file():
         raise PresetError(str(path), "(file)", "does not exist")
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8-sig"))
-    except UnicodeDecodeError as exc:
-        raise PresetError(str(path), "(file)", f"is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
-    except json.JSONDecodeError as exc:
-        raise PresetError(str(path), "(file)", f"is not valid JSON: {exc}") from None
-    except OSError as exc:
-        raise PresetError(str(path), "(file)", f"cannot be read: {exc.strerror or exc}") from None
-    if not isinstance(doc, dict):
-        raise PresetError(str(path), "(top level)", "must be a JSON object")
-    return from_dict(doc, str(path))
+    return from_dict(read_object(path), str(path))
 
 
 def from_dict(doc: dict, source: str = "viseme set") -> VisemeSet:
