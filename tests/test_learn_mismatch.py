@@ -99,7 +99,9 @@ def test_track_csv_mapping(tmp_path):
     m = capture.load_track_map("LA=lip_aperture,p_aa=viseme:aa")
     times, values, names = capture.read_track_csv(f, m)
     assert names == ["lip_aperture", "viseme:aa"] and times == pytest.approx([0, 0.01, 0.02])
-    (tmp_path / "m.json").write_text(json.dumps({"columns": {"LA": {"track": "lip_aperture", "range": [10, 0]}}}))
+    # saved by Notepad: UTF-8 with a byte-order mark
+    (tmp_path / "m.json").write_text(json.dumps({"columns": {"LA": {"track": "lip_aperture", "range": [10, 0]}}}),
+                                     encoding="utf-8-sig")
     _t, values, _n = capture.read_track_csv(f, capture.load_track_map(str(tmp_path / "m.json")))
     assert values[:, 0] == pytest.approx([0.0, 0.5, 1.0])       # a range turned over
 

@@ -148,7 +148,7 @@ def load_track_map(spec: str) -> dict:
         if not path.is_file():
             raise ImportFormatError(f"track map not found: {path}")
         try:
-            m = json.loads(path.read_text(encoding="utf-8"))
+            m = json.loads(path.read_text(encoding="utf-8-sig"))
         except (ValueError, UnicodeDecodeError) as exc:
             raise ImportFormatError(f"{path}: not valid JSON ({exc})") from None
         where = str(path)
