@@ -304,7 +304,8 @@ def analyze_line(line: Line, defaults: Defaults):
                    viseme_set=line.viseme_set or defaults.viseme_set,
                    emotion=line.emotion or defaults.emotion, coarticulation_model=defaults.coarticulation,
                    fps=line.fps or defaults.fps, dictionary=defaults.dictionary,
-                   emotion_fade=defaults.emotion_fade, settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
+                   emotion_fade=defaults.emotion_fade,
+                   settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
 
 
 def work(line: Line, defaults: Defaults) -> Outcome:

@@ -229,7 +229,8 @@ def _envelope(times: np.ndarray, ev: Event, ramp: float, approach: float | None 
         if k > 0 and abs(times[k - 1] - ev.centre) < abs(times[k] - ev.centre):
             k -= 1
         return k, k + 1, np.ones(1)
-    return lo, hi, np.where(inside, 1.0, approach * (1.0 - np.minimum(np.abs(t - np.minimum(np.maximum(t, a), b)) / ramp, 1.0)))
+    outside = np.abs(t - np.minimum(np.maximum(t, a), b))   # distance to [a, b]
+    return lo, hi, np.where(inside, 1.0, approach * (1.0 - np.minimum(outside / ramp, 1.0)))
 
 
 def enforce_closures(curves: np.ndarray, times: np.ndarray, events: list[Event],

@@ -201,8 +201,6 @@ def load(path: str | os.PathLike) -> Convention:
     path = Path(path)
     if not path.suffix and not path.exists():
         path = DATA / f"{path}.json"
-    if not path.is_file():
-        raise PresetError(str(path), "(file)", "does not exist")
     return from_dict(read_object(path), str(path))
 
 

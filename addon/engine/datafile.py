@@ -16,10 +16,10 @@ from .errors import PresetError
 
 def read_object(path: Path) -> dict:
     """The JSON object in ``path``."""
+    if not path.is_file():
+        raise PresetError(str(path), "(file)", "does not exist")
     try:
         doc = json.loads(path.read_text(encoding="utf-8-sig"))
-    except FileNotFoundError:
-        raise PresetError(str(path), "(file)", "does not exist") from None
     except UnicodeDecodeError as exc:
         raise PresetError(str(path), "(file)", f"is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
     except json.JSONDecodeError as exc:

@@ -86,8 +86,6 @@ def load(name_or_path: str | os.PathLike) -> VisemeSet:
         if not path.is_file():
             raise PresetError(str(name_or_path), "name",
                               f"is not a viseme set; built-in sets: {', '.join(builtin_names())}")
-    if not path.is_file():
-        raise PresetError(str(path), "(file)", "does not exist")
     return from_dict(read_object(path), str(path))
 
 
