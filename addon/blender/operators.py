@@ -30,6 +30,13 @@ def _mesh(context, name: str):
     return st.target or context.active_object
 
 
+def _face(context, name: str):
+    """:func:`_mesh`, checked to be a mesh with shape keys the add-on may animate."""
+    obj = _mesh(context, name)
+    run.check_mesh(obj)
+    return obj
+
+
 def _options(context, emotion: str, coarticulation: str, tolerance: float) -> run.Options:
     st = context.scene.emotive_lipsync
     preset = presets.load(_preset_source(emotion)) if emotion else st.preset()
@@ -98,8 +105,7 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
                                "(-1: the panel's start frame)")
         scene = context.scene
         st = scene.emotive_lipsync
-        obj = _mesh(context, self.mesh)
-        run.check_mesh(obj)
+        obj = _face(context, self.mesh)
         options = _options(context, self.emotion, self.coarticulation, self.tolerance)
         if self.filepath or (not self.strip and st.source == "FILE"):
             path = self.filepath or st.audio_file
@@ -213,8 +219,7 @@ class LIPSYNC_OT_clear(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj = _mesh(context, self.mesh)
-            run.check_mesh(obj)
+            obj = _face(context, self.mesh)
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         # The character's other meshes keyed with the face (teeth ...) go too.
@@ -271,8 +276,7 @@ class LIPSYNC_OT_mapping_add(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj = _mesh(context, "")
-            run.check_mesh(obj)
+            obj = _face(context, "")
             first = run.mesh_viseme_set(obj).visemes[0]
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
@@ -292,8 +296,7 @@ class LIPSYNC_OT_mapping_remove(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj = _mesh(context, "")
-            run.check_mesh(obj)
+            obj = _face(context, "")
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         if not len(obj.emotive_lipsync.mapping):
