@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from addon.engine import arousal, cli, presets
+from addon.engine.errors import LipSyncError
 from addon.engine.pipeline import analyze
 from conftest import write_wav
 from voice_synth import voice
@@ -44,6 +45,16 @@ def test_model_file_checked(tmp_path):
     bad.write_text(json.dumps({"bias": 0, "features": {"loudness": {"center": 0, "scale": 1, "weight": 1}}}))
     with pytest.raises(Exception, match="unknown feature 'loudness'"):
         arousal.load_model(bad)
+    # Saved with a byte-order mark (Windows Notepad): read as the plain file.
+    good = tmp_path / "bom.json"
+    good.write_text(json.dumps(arousal.load_model()), encoding="utf-8-sig")
+    assert arousal.load_model(good) == arousal.load_model()
+    broken = tmp_path / "broken.json"
+    broken.write_text('{"bias": 0,\n "features": {\n}', encoding="utf-8")
+    with pytest.raises(LipSyncError, match=r"broken\.json.*line 3, column 2"):
+        arousal.load_model(broken)
+    with pytest.raises(LipSyncError, match=r"missing\.json.*does not exist"):
+        arousal.load_model(tmp_path / "missing.json")
     model = arousal.load_model()
     assert set(model["features"]) <= set(arousal.FEATURES) and model["features"]
 

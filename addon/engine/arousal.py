@@ -37,7 +37,6 @@ unvoiced stretch, take the clip's value) and smooths the result.
 from __future__ import annotations
 
 import copy
-import json
 import os
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -45,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import prosody, smoothing
+from . import datafile, prosody, smoothing
 from .audio import Audio
 from .errors import LipSyncError
 
@@ -102,18 +101,15 @@ def load_model(path: str | os.PathLike | None = None) -> dict:
     path = Path(path or os.environ.get("LIPSYNC_AROUSAL_MODEL") or DATA)
     try:
         stamp = path.stat().st_mtime_ns
-    except OSError as exc:
-        raise LipSyncError(f"arousal model {path}: cannot be read ({exc})") from None
+    except OSError:
+        stamp = -1   # no such file: reading it says so
     return copy.deepcopy(_read_model(path, stamp))
 
 
 @lru_cache(maxsize=4)
 def _read_model(path: Path, stamp: int) -> dict:
     """:func:`load_model`'s reading and checking, for one version of a file."""
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise LipSyncError(f"arousal model {path}: cannot be read ({exc})") from None
+    doc = datafile.read_object(path)
     try:
         feats = doc["features"]
         for name, c in feats.items():

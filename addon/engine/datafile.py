@@ -1,5 +1,5 @@
 """Reading the JSON files a studio writes to extend the add-on: emotion
-presets, viseme sets and shape-key naming conventions.
+presets, viseme sets, shape-key naming conventions and the arousal model.
 
 Every problem with the file as a whole is a :class:`PresetError` naming the
 file and the ``(file)`` or ``(top level)`` field; the loaders then name the
