@@ -249,9 +249,9 @@ def test_long_clip_aligned_window_by_window_matches_one_pass(tmp_path, monkeypat
     walk = stream._walk
 
     def spy(*args):
-        placed, word, t = walk(*args)
+        placed, word = walk(*args)
         windows.extend(placed)
-        return placed, word, t
+        return placed, word
 
     monkeypatch.setattr(stream, "_walk", spy)
     reported = []

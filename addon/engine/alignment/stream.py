@@ -145,11 +145,10 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
     tail walks backward from the last word and time ``stop`` while more than
     a window is left after ``start``.
 
-    Returns (placed, words, time): ``placed`` a list of (word start, word
-    end, t0, t1, kind, payload, cut) in the order walked (``cut``: where the
-    walk went on from), then
-    the first word (head: the next unplaced; tail: one past the last
-    unplaced) and the time the walk stopped at."""
+    Returns (placed, word): ``placed`` a list of (word start, word end, t0,
+    t1, kind, payload, cut) in the order walked (``cut``: where the walk went
+    on from), and the first word left (head: the next unplaced; tail: one
+    past the last unplaced)."""
     n = len(prons)
     lo, hi = 0, n
     placed = []
@@ -238,7 +237,7 @@ def _walk(side: str, audio: Audio, prons: list[list[str]], mask: np.ndarray, sta
         else:
             placed.append((hi - keep, hi, a, b, kind, payload[used - keep:], a + cut * FRAME))
             hi, t = hi - keep, a + cut * FRAME
-    return placed, (lo if side == "head" else hi), t
+    return placed, (lo if side == "head" else hi)
 
 
 #: The clips being aligned, for the forked workers, by a key of their own.
@@ -305,8 +304,8 @@ def align_stream(audio: Audio, prons: list[list[str]], mask: np.ndarray, setting
             while pending:
                 _done, pending = concurrent.futures.wait(pending, timeout=0.5)
                 progress(reach.share())
-        heads, lo, _ = fut_h.result()
-        tails, hi, _ = fut_t.result()
+        heads, lo = fut_h.result()
+        tails, hi = fut_t.result()
     finally:
         runner.shutdown()
         del _SHARED[key]
