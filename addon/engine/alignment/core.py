@@ -12,6 +12,7 @@ from .chunks import _align_chunked
 from .decoding import _whole
 from .estimate import _clean, _estimate
 from .pieces import _align_pieces
+from .reduced import shorten_reduced
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
 from .stream import align_stream
@@ -87,6 +88,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
 
     restore(result, prons)
     refine_stops(audio, result, est)
+    shorten_reduced(result, est)
     words: list[AlignedWord] = []
     phones: list[AlignedPhone] = []
     for wi in range(n):
