@@ -19,7 +19,7 @@ import numpy as np
 from common import ROOT
 from addon.engine import audio as audio_mod
 from addon.engine import capture, learn, pipeline, presets, visemes
-from addon.engine.align import Alignment
+from addon.engine.alignment import Alignment
 
 CHANNELS = list(capture.ARKIT)
 

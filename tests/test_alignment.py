@@ -7,7 +7,7 @@ import pytest
 
 from conftest import FIXTURES, ROOT, SAMPLE, write_wav
 from addon.engine import audio as audio_mod
-from addon.engine.align import AlignSettings
+from addon.engine.alignment import AlignSettings
 from addon.engine.errors import AlignmentError, AudioError, LipSyncError, TranscriptError
 from addon.engine.pipeline import align_file, analyze
 

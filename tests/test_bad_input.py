@@ -188,7 +188,7 @@ def test_alignment_within_tolerance_of_the_end_is_kept(tmp_path, one_second):
 
 
 def test_alignment_object_past_the_end_is_refused():
-    from addon.engine.align import AlignedPhone, AlignedWord, Alignment
+    from addon.engine.alignment import AlignedPhone, AlignedWord, Alignment
     from addon.engine.audio import from_samples
     from addon.engine.pipeline import analyze
 

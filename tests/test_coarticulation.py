@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from addon.engine import presets, visemes
-from addon.engine.align import AlignedPhone, Alignment
+from addon.engine.alignment import AlignedPhone, Alignment
 from addon.engine.pipeline import curves
 from addon.engine.prosody import ClipStats
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from addon.engine import cli, emotion_track, pipeline, presets
-from addon.engine.align import AlignedPhone, AlignedWord, Alignment
+from addon.engine.alignment import AlignedPhone, AlignedWord, Alignment
 from addon.engine.errors import TranscriptError
 from addon.engine.text import normalize
 from voice_synth import voice

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from addon.engine import keys, mapping, visemes
+from addon.engine import key_reduction, mapping, visemes
 
 OCULUS_NAMES = ["Basis"] + [f"viseme_{v}" for v in "sil PP FF TH DD kk CH SS nn RR aa E ih oh ou".split()]
 ARKIT_NAMES = ["Basis", "jawOpen", "mouthClose", "mouthFunnel", "mouthPucker", "mouthStretchLeft",
@@ -52,10 +52,10 @@ def test_shape_key_curves_sum_weighted_visemes_and_clip():
 def test_reduce_keeps_peaks_and_stays_within_tolerance():
     t = np.linspace(0, 4 * np.pi, 400)
     y = np.clip(np.sin(t) * np.exp(-t / 10), 0, None)
-    idx = keys.reduce(y, 0.01)
+    idx = key_reduction.reduce(y, 0.01)
     assert idx[0] == 0 and idx[-1] == len(y) - 1
     assert len(idx) < 60
     interp = np.interp(np.arange(len(y)), idx, y[idx])
     assert np.abs(interp - y).max() <= 0.01 + 1e-12
     assert np.argmax(y) in idx
-    assert np.array_equal(keys.reduce(y, 0.0), np.arange(len(y)))
+    assert np.array_equal(key_reduction.reduce(y, 0.0), np.arange(len(y)))

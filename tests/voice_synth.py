@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from addon.engine.align import AlignedPhone, AlignedWord, Alignment
+from addon.engine.alignment import AlignedPhone, AlignedWord, Alignment
 from addon.engine.audio import Audio
 
 RATE = 16000

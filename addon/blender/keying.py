@@ -14,7 +14,7 @@ import json
 import bpy
 import numpy as np
 
-from ..engine import keys as key_reduction
+from ..engine import key_reduction
 from . import compat
 
 RECORD = "emotive_lipsync"
@@ -195,7 +195,7 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
     """Key ``values`` (frames x shape keys) on ``obj`` from ``first_frame``.
 
     With ``tolerance`` 0 every frame gets a linear key (exact, and no Bezier
-    overshoot past 0 or 1); otherwise :func:`..engine.keys.reduce` keeps the
+    overshoot past 0 or 1); otherwise :func:`..engine.key_reduction.reduce` keeps the
     keys needed and Blender's default Bezier keys smooth between them, held
     within ``tolerance`` by :func:`_hold_to_tolerance`.
     Returns counts: keys written, keys replaced, F-curves created.

@@ -14,7 +14,7 @@ import bpy
 
 from ..engine import conventions, pipeline, visemes
 from ..engine import mapping as mapping_mod
-from ..engine.align import AlignSettings
+from ..engine.alignment import AlignSettings
 from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
 from . import compat, emotion_markers, keying

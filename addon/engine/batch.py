@@ -244,12 +244,14 @@ def warm(dictionary: str | None = None) -> None:
     global _WARM
     if _WARM:
         return
-    from . import align, pipeline, presets, pronounce, prosody  # noqa: F401  (imports are the point)
+    from . import pipeline, presets, pronounce, prosody  # noqa: F401  (imports are the point)
+    from .alignment import AlignSettings
+    from .alignment.decoding import _decoder
 
     pronounce.cmudict()
     presets.builtin_names()
     try:
-        align._decoder([["HH", "AH"]], 0, align.AlignSettings())
+        _decoder([["HH", "AH"]], 0, AlignSettings())
     except Exception:  # a broken model shows up as each line's own error
         pass
     if dictionary:
@@ -293,7 +295,7 @@ def line_text(line: Line) -> str | None:
 
 def analyze_line(line: Line, defaults: Defaults):
     """Lip-sync one line in this process; returns the pipeline's Result."""
-    from .align import AlignSettings
+    from .alignment import AlignSettings
     from .pipeline import analyze
 
     warm(defaults.dictionary)

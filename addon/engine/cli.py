@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         from .arousal_cli import run as run_arousal
 
         return run_arousal(args.audio, args.json)
-    from .align import AlignSettings
+    from .alignment import AlignSettings
     from .pipeline import analyze
 
     if not (args.json or args.csv):

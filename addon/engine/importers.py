@@ -24,7 +24,7 @@ import math
 import re
 from pathlib import Path
 
-from .align import AlignedPhone, AlignedWord, Alignment
+from .alignment import AlignedPhone, AlignedWord, Alignment
 from .errors import ImportFormatError, UnknownLabelError
 from .phonemes import SILENCE, to_arpabet
 

@@ -20,7 +20,7 @@ import numpy as np
 from . import audio as audio_mod
 from . import arousal as arousal_mod
 from . import coarticulation, emotion_track, pauses, presets, prosody, visemes, weights
-from .align import AlignSettings, Alignment, align, check_transcript_matches
+from .alignment import AlignSettings, Alignment, align, check_transcript_matches
 from .alignment.parallel import Background
 from .audio import Audio
 from .errors import AlignmentError, AudioError, LipSyncError

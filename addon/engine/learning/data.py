@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import coarticulation, pauses, prosody
-from ..align import Alignment
+from ..alignment import Alignment
 from ..audio import Audio
 from ..errors import LipSyncError
 from ..phonemes import CLASSES
