@@ -19,7 +19,7 @@ import numpy as np
 
 from common import DATA, ROOT
 from addon.engine import presets
-from addon.engine.phonemes import MANNER
+from addon.engine.language.phonemes import MANNER
 from addon.engine.pipeline import analyze
 
 sys.path.insert(0, str(ROOT / "tests"))

@@ -67,8 +67,8 @@ from alignment_accuracy import match
 from addon.engine import audio as audio_mod
 from addon.engine import pipeline
 from addon.engine.importers import read_textgrid
-from addon.engine.phonemes import is_vowel
-from addon.engine.text import normalize
+from addon.engine.language.phonemes import is_vowel
+from addon.engine.language.text import normalize
 
 STEP = 0.01
 MIN_PAUSE = 0.3

@@ -50,7 +50,7 @@ def _targets(phone: str, frac: float):
 
 def articulate(alignment, duration: float, rate: float = 1000.0):
     """(times, (samples, 3) jaw / lip aperture / rounding) on a ``rate`` Hz grid."""
-    from addon.engine.phonemes import phone_class
+    from addon.engine.language.phonemes import phone_class
 
     t = np.arange(int(duration * rate) + 1) / rate
     goal = np.tile(np.array(_C["SIL"]), (len(t), 1))

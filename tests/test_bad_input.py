@@ -201,7 +201,7 @@ def test_alignment_object_past_the_end_is_refused():
 
 # --- Transcripts -----------------------------------------------------------------
 
-from addon.engine.text import decode_text, read_text_file  # noqa: E402
+from addon.engine.language.text import decode_text, read_text_file  # noqa: E402
 
 LINE = "Café Bob bought a map"
 
@@ -346,7 +346,7 @@ def test_transcript_with_no_usable_word_says_why(tmp_path, text, words):
 
 
 def test_accented_latin_numbers_and_symbols_are_spoken_not_skipped(tmp_path):
-    from addon.engine.text import normalize, skipped_words
+    from addon.engine.language.text import normalize, skipped_words
 
     text = "Zoë paid $5 for 2 maps & 1 café, at 10:30 (sighs) \u201cokay\u201d"
     assert skipped_words(text) == []

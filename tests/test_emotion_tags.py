@@ -8,7 +8,7 @@ import pytest
 from addon.engine import cli, emotion_track, pipeline, presets
 from addon.engine.alignment import AlignedPhone, AlignedWord, Alignment
 from addon.engine.errors import TranscriptError
-from addon.engine.text import normalize
+from addon.engine.language.text import normalize
 from voice_synth import voice
 
 

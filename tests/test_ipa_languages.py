@@ -6,7 +6,7 @@ import pytest
 from addon.engine import visemes
 from addon.engine.errors import UnknownLabelError
 from addon.engine.importers import read_textgrid
-from addon.engine.ipa import to_arpabet
+from addon.engine.language.ipa import to_arpabet
 
 # One short phrase per language, phone by phone, in Montreal Forced Aligner's
 # IPA phone sets (length, tone letters, palatalisation and nasal marks kept).

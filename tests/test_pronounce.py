@@ -1,10 +1,10 @@
 import pytest
 
-from addon.engine import lts
+from addon.engine.language import lts
 from addon.engine.errors import TranscriptError
-from addon.engine.phonemes import strip_stress
-from addon.engine.pronounce import Lexicon, _SortedDictionary, cmudict_path
-from addon.engine.text import Word, normalize
+from addon.engine.language.phonemes import strip_stress
+from addon.engine.language.pronounce import Lexicon, _SortedDictionary, cmudict_path
+from addon.engine.language.text import Word, normalize
 
 
 def pron(word, lexicon=None):

@@ -1,7 +1,7 @@
 import pytest
 
 from addon.engine.errors import TranscriptError
-from addon.engine.text import normalize
+from addon.engine.language.text import normalize
 
 
 def spoken(text):

@@ -5,9 +5,9 @@ import pytest
 from addon.engine import visemes
 from addon.engine.coarticulation import build_events
 from addon.engine.errors import PresetError
-from addon.engine.phonemes import PHONEMES, to_arpabet
-from addon.engine.pronounce import Lexicon
-from addon.engine.text import Word
+from addon.engine.language.phonemes import PHONEMES, to_arpabet
+from addon.engine.language.pronounce import Lexicon
+from addon.engine.language.text import Word
 import numpy as np
 
 

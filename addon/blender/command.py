@@ -26,7 +26,7 @@ import bpy
 
 from ..engine import batch, presets, visemes
 from ..engine.errors import LipSyncError
-from ..engine.text import read_text_file
+from ..engine.language.text import read_text_file
 from . import compat, run, sources
 
 COMMAND = "lipsync"

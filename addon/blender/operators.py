@@ -16,7 +16,7 @@ from bpy.props import FloatProperty, IntProperty, StringProperty
 from ..engine import mapping as mapping_mod
 from ..engine import presets, visemes
 from ..engine.errors import LipSyncError
-from ..engine.text import read_text_file
+from ..engine.language.text import read_text_file
 from . import compat, jobs, keying, run, sources
 
 

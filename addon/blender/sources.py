@@ -20,7 +20,7 @@ import bpy
 
 from ..engine.audio import Audio
 from ..engine.errors import AudioError, LipSyncError, TranscriptError
-from ..engine.text import read_text_file
+from ..engine.language.text import read_text_file
 from . import compat
 
 #: Custom properties a sound strip may carry for batch runs.
@@ -117,7 +117,7 @@ def file_clip(path: str, first_frame: int) -> Clip:
 
 def sidecar_transcript(audio_path: str | None) -> str | None:
     """``line.txt`` beside ``line.wav``, in any encoding the engine reads
-    (:func:`..engine.text.read_text_file`; a guessed encoding is reported on
+    (:func:`..engine.language.text.read_text_file`; a guessed encoding is reported on
     the console).  An unreadable file is a :class:`TranscriptError`."""
     if not audio_path:
         return None

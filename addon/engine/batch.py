@@ -244,7 +244,8 @@ def warm(dictionary: str | None = None) -> None:
     global _WARM
     if _WARM:
         return
-    from . import pipeline, presets, pronounce, prosody  # noqa: F401  (imports are the point)
+    from . import pipeline, presets, prosody  # noqa: F401  (imports are the point)
+    from .language import pronounce
     from .alignment import AlignSettings
     from .alignment.decoding import _decoder
 
@@ -279,7 +280,7 @@ def line_text(line: Line) -> str | None:
     """The words of a line (None when only an alignment is given)."""
     if line.text is not None:
         return line.text
-    from .text import read_text_file
+    from .language.text import read_text_file
 
     if line.transcript:
         return read_text_file(line.transcript)[0]

@@ -11,7 +11,7 @@ from pathlib import Path
 from . import capture, presets, visemes
 from .emotion_track import DEFAULT_FADE
 from .errors import LipSyncError
-from .text import read_text_file
+from .language.text import read_text_file
 
 
 def _style_options(p: argparse.ArgumentParser, per_line: bool) -> None:

@@ -37,7 +37,7 @@ import numpy as np
 
 from . import smoothing
 from .pauses import settings as timing_settings
-from .phonemes import SILENCE, phone_class
+from .language.phonemes import SILENCE, phone_class
 
 CLOSURE_CLASSES = ("bilabial", "labiodental")
 

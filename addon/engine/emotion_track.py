@@ -83,7 +83,7 @@ def split_tags(text: str, known: Callable[[str], bool] = builtin_known, names: l
     the built-in ones and preset files); ``names`` are the names offered
     when a tag looks misspelt.  Raises :class:`TranscriptError` naming the
     tag and its line and column for an explicit tag that names no preset."""
-    from .text import normalize
+    from .language.text import normalize
 
     names = list(names) if names is not None else presets_mod.builtin_names()
     tags: list[Tag] = []

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .alignment import AlignedPhone, AlignedWord, Alignment
 from .errors import ImportFormatError, UnknownLabelError
-from .phonemes import SILENCE, to_arpabet
+from .language.phonemes import SILENCE, to_arpabet
 
 #: Rhubarb's mouth shapes -> a phone with that mouth shape.
 RHUBARB_PHONE = {"A": "M", "B": "K", "C": "EH", "D": "AA", "E": "AO", "F": "UW",

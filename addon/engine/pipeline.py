@@ -25,9 +25,9 @@ from .alignment.parallel import Background
 from .audio import Audio
 from .errors import AlignmentError, AudioError, LipSyncError
 from .importers import read_alignment
-from .phonemes import CLASSES, phone_class
-from .pronounce import Lexicon
-from .text import describe_skipped, normalize, skipped_words
+from .language.phonemes import CLASSES, phone_class
+from .language.pronounce import Lexicon
+from .language.text import describe_skipped, normalize, skipped_words
 
 MODELS = ("dominance", "rules")
 #: Shorter audio cannot hold a spoken word (s).

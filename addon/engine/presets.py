@@ -49,7 +49,7 @@ from typing import Any
 
 from .datafile import read_object
 from .errors import PresetError
-from .phonemes import CLASSES
+from .language.phonemes import CLASSES
 
 DATA = Path(__file__).parent / "data" / "presets"
 BUILTIN = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
@@ -126,7 +126,7 @@ def validate(p: dict, source: str = "preset") -> dict:
         inf[c] = _num(source, f"rules.influence.{c}", inf.get(c), 0.0, 3.0)
     de = section(r, "deletion", "rules.deletion")
     no_extra(de, ("phones", "threshold"), "rules.deletion")
-    from .phonemes import PHONEMES
+    from .language.phonemes import PHONEMES
     if not isinstance(de.get("phones"), list) or any(ph not in PHONEMES for ph in de["phones"]):
         raise PresetError(source, "rules.deletion.phones", f"must be a list of ARPAbet phonemes, got {de.get('phones')!r}")
     de["threshold"] = _num(source, "rules.deletion.threshold", de.get("threshold"), 0.0, 0.5)

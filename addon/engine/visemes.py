@@ -32,7 +32,7 @@ import numpy as np
 
 from .datafile import read_object
 from .errors import PresetError
-from .phonemes import PHONEMES, SILENCE
+from .language.phonemes import PHONEMES, SILENCE
 
 DATA = Path(__file__).parent / "data" / "visemes"
 

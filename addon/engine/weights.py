@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .phonemes import MANNER
+from .language.phonemes import MANNER
 
 
 def piecewise(x, x_min: float, x_mean: float, x_max: float, w_min, w_p, w_max) -> np.ndarray:

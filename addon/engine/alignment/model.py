@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..phonemes import VOWELS
+from ..language.phonemes import VOWELS
 
 
 FRAME = 0.01  # pocketsphinx's frame period (100 frames per second)

@@ -14,7 +14,7 @@ from .. import coarticulation, pauses, prosody
 from ..alignment import Alignment
 from ..audio import Audio
 from ..errors import LipSyncError
-from ..phonemes import CLASSES
+from ..language.phonemes import CLASSES
 
 
 @dataclass
@@ -116,8 +116,8 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
     from ..capture import read_capture_csv, read_track_csv
     from ..importers import read_alignment
     from ..pipeline import align_audio
-    from ..pronounce import Lexicon
-    from ..text import read_text_file
+    from ..language.pronounce import Lexicon
+    from ..language.text import read_text_file
 
     audio_path = Path(audio_path)
     stem = audio_path.with_suffix("")

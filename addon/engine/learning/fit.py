@@ -61,7 +61,7 @@ import numpy as np
 
 from .. import mapping, presets, visemes
 from ..errors import LipSyncError
-from ..phonemes import CLASSES
+from ..language.phonemes import CLASSES
 from . import delay as delay_mod
 from . import proxies, report
 from .data import Prepared, TrainingClip, prepare

@@ -9,7 +9,7 @@ import copy
 import numpy as np
 
 from .. import coarticulation, mapping
-from ..phonemes import CLASSES
+from ..language.phonemes import CLASSES
 from .data import Prepared
 
 PARAMS = ("alpha", "theta", "phi", "c")

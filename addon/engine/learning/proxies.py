@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LipSyncError
-from ..phonemes import SILENCE
+from ..language.phonemes import SILENCE
 
 TABLE = Path(__file__).resolve().parent.parent / "data" / "articulation" / "proxies.json"
 VISEME_PREFIX = "viseme:"

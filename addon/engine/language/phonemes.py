@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 
 from . import ipa
-from .errors import UnknownLabelError
+from ..errors import UnknownLabelError
 
 SILENCE = "SIL"
 

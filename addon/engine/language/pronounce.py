@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import lts
-from .errors import TranscriptError
+from ..errors import TranscriptError
 from .phonemes import PHONEMES, strip_stress
 from .text import Word
 

@@ -23,7 +23,7 @@ import unicodedata
 from dataclasses import dataclass
 
 from . import numbers
-from .errors import TranscriptError
+from ..errors import TranscriptError
 
 #: Pause strength of each punctuation mark, from 0 (none) to 1 (sentence end).
 PAUSE_MARKS = {",": 0.4, ";": 0.6, ":": 0.6, "—": 0.6, "–": 0.5, "...": 0.8, "…": 0.8,

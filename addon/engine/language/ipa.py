@@ -32,7 +32,7 @@ import unicodedata
 from functools import lru_cache
 from pathlib import Path
 
-DATA = Path(__file__).parent / "data" / "ipa.json"
+DATA = Path(__file__).parent.parent / "data" / "ipa.json"
 
 #: Modifier letters and marks that carry no visible articulation.
 MODIFIERS = set("ˈˌːˑ.‿͜͡ʰʱʲʷˠˤⁿˡʼ̚ᵊ˞-_|‖↗↘ꜛꜜ") | set("˥˦˧˨˩꜒꜓꜔꜕꜖꜀꜁꜂꜃꜄꜅꜆꜇꜈꜉꜊꜋꜌꜍꜎꜏꜐꜑") | set("0123456789")
