@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from common import reference_phones
-from addon.engine import pipeline
+from addon.engine.alignment import align_audio, align_file
 from addon.engine.importers import read_textgrid
 
 
@@ -68,7 +68,7 @@ def joined_row(repeat: int = 1) -> None:
         ref_phones += [(p.phone, p.start + offset) for p in read_textgrid(c[3], c[4]).phones]
         offset += s.duration
     t0 = time.perf_counter()
-    al = pipeline.align_audio(joined, text)
+    al = align_audio(joined, text)
     dt = time.perf_counter() - t0
     pairs = match([p.phone for p in al.phones], [p[0] for p in ref_phones])
     err = np.round(np.array([abs(al.phones[i].start - ref_phones[j][1]) for i, j in pairs]), 4)
@@ -83,7 +83,7 @@ def main() -> None:
     for name, audio, text, grid, phoneset in reference_phones():
         ref = read_textgrid(grid, phoneset)
         t0 = time.perf_counter()
-        al = pipeline.align_file(audio, text)
+        al = align_file(audio, text)
         dt = time.perf_counter() - t0
         hyp = [p.phone for p in al.phones]
         pairs = match(hyp, [p.phone for p in ref.phones])

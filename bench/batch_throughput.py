@@ -36,7 +36,7 @@ from common import DATA, need_data, write_wav
 from addon.engine import audio as audio_mod
 from addon.engine import batch
 from addon.engine.importers import read_alignment
-from addon.engine.pipeline import align_file
+from addon.engine.alignment import align_file
 
 MIN_LEN, MAX_LEN, MARGIN = 0.6, 4.0, 0.06
 

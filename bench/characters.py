@@ -39,11 +39,11 @@ LINES = ((ROOT / "tests" / "fixtures" / "fast_bilabials.wav", 1), (ROOT / "tests
 def main() -> int:
     import addon
     from addon.blender import compat, run, sources
-    from addon.engine import pipeline
+    from addon.engine.alignment import align_audio
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()
-    phones = [pipeline.align_audio(sources.decode(str(path)), TEXT).phones for path, _f in LINES]
+    phones = [align_audio(sources.decode(str(path)), TEXT).phones for path, _f in LINES]
     print(f"{'head':24} {'convention':44} {'keys':>4}  {'/p b m/ max':>11}  {'open vowels min..max':>20}  "
           f"{'lowest':>7}")
     worst_closed, worst_low = 0.0, 0.0

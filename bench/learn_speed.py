@@ -18,7 +18,9 @@ import numpy as np
 
 from common import ROOT
 from addon.engine import audio as audio_mod
-from addon.engine import capture, learn, pipeline, presets, visemes
+from addon.engine import learn, pipeline, presets, visemes
+from addon.engine.learning import capture
+from addon.engine.alignment import align_audio
 from addon.engine.alignment import Alignment
 
 CHANNELS = list(capture.ARKIT)
@@ -45,7 +47,7 @@ def pieces(snd, al, length=3.0):
 def main():
     speech = ROOT / "sample_rigs" / "speech"
     snd = audio_mod.load(speech / "hello.wav")
-    al = pipeline.align_audio(snd, (speech / "hello.txt").read_text())
+    al = align_audio(snd, (speech / "hello.txt").read_text())
     base = pieces(snd, al)
     rng = np.random.default_rng(3)
     vs = visemes.load("arkit")

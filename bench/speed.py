@@ -28,7 +28,8 @@ import numpy as np
 from common import DATA, ROOT, need_data, write_wav
 from addon.engine import audio as audio_mod
 from addon.engine import presets, visemes
-from addon.engine.pipeline import analyze, curves
+from addon.engine.pipeline import analyze
+from addon.engine.render import curves
 from addon.engine.alignment import AlignedPhone, Alignment
 from addon.engine.prosody import ClipStats
 

@@ -238,7 +238,7 @@ def main(argv):
     sys.path.insert(0, HERE)
     import addon
     from addon.blender import command, compat, sources
-    from addon.engine import pipeline
+    from addon.engine.alignment import align_audio
 
     t0 = time.perf_counter()
     heads, label = build_scene()
@@ -266,7 +266,7 @@ def main(argv):
     for obj in heads.values():
         print(f"{obj.name}: {obj.emotive_lipsync.convention}")
 
-    alignment = pipeline.align_audio(sources.decode(SPEECH), transcript)
+    alignment = align_audio(sources.decode(SPEECH), transcript)
     tiles = []
     for frame, text_ in chosen_frames(scene, alignment, 1, heads["Human"]):
         scene.frame_set(frame)

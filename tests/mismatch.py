@@ -115,7 +115,7 @@ def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, names=None, **
     """Training clips with synthetic captures of the three proxy tracks
     (``names``: of these sources only)."""
     from addon.engine import audio as audio_mod
-    from addon.engine import pipeline
+    from addon.engine.alignment import align_audio
     from addon.engine.learn import TrainingClip
 
     rng = np.random.default_rng(seed)
@@ -124,7 +124,7 @@ def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, names=None, **
         if names is not None and name not in names:
             continue
         snd = audio_mod.load(path)
-        al = pipeline.align_audio(snd, text)
+        al = align_audio(snd, text)
         for f in rates:
             s2, a2 = (snd, al) if f == 1.0 else stretch(snd, al, f)
             times, y = capture(a2, s2.duration, delay=delay, rng=rng, **kw)

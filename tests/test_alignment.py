@@ -9,7 +9,8 @@ from conftest import FIXTURES, ROOT, SAMPLE, write_wav
 from addon.engine import audio as audio_mod
 from addon.engine.alignment import AlignSettings
 from addon.engine.errors import AlignmentError, AudioError, LipSyncError, TranscriptError
-from addon.engine.pipeline import align_file, analyze
+from addon.engine.alignment import align_file
+from addon.engine.pipeline import analyze
 
 
 def test_every_word_aligned_in_order():

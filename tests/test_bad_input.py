@@ -586,12 +586,13 @@ def test_aligner_running_out_of_memory_is_an_error_not_a_traceback(tmp_path, mon
     """A worker killed by the system (a very long recording) is reported in one line."""
     from concurrent.futures.process import BrokenProcessPool
 
-    from addon.engine import cli, pipeline
+    from addon.engine import cli
+    from addon.engine.alignment import transcript
 
     def killed(*a, **k):
         raise BrokenProcessPool("A process in the process pool was terminated abruptly")
 
-    monkeypatch.setattr(pipeline, "align", killed)
+    monkeypatch.setattr(transcript, "align", killed)
     rc = cli.main(["analyze", str(FIXTURES / "bob_map.wav"), "--text", "Bob", "--json", str(tmp_path / "o.json")])
     err = capsys.readouterr().err
     assert rc == 1 and "Traceback" not in err

@@ -3,7 +3,7 @@ import pytest
 
 from addon.engine import presets, visemes
 from addon.engine.alignment import AlignedPhone, Alignment
-from addon.engine.pipeline import curves
+from addon.engine.render import curves
 from addon.engine.prosody import ClipStats
 
 STATS = ClipStats(100, 150, 200, 40, 60, 80, True)

@@ -7,7 +7,7 @@ import pytest
 
 from addon.engine import cli, emotion_track, pipeline, presets
 from addon.engine.alignment import AlignedPhone, AlignedWord, Alignment
-from addon.engine.errors import TranscriptError
+from addon.engine.errors import LipSyncError, TranscriptError
 from addon.engine.language.text import normalize
 from voice_synth import voice
 
@@ -124,6 +124,35 @@ def test_inline_tags_in_analyze_never_reach_the_aligner(monkeypatch, line):
     r = pipeline.analyze(snd, "[sad] one two three four five six seven eight", emotion="neutral")
     assert np.array_equal(r.curves, sad.curves)
     assert r.emotions == [{"emotion": "sad", "time": 0.0, "fade": None}]
+    # ... and the line's emotion is that one, as with --emotion sad.
+    assert r.emotion == "sad" and r.to_dict()["emotion"] == sad.to_dict()["emotion"] == "sad"
+
+
+def test_preset_file_in_a_tag_is_read_from_the_transcripts_folder(monkeypatch, line, tmp_path):
+    """``[presets/grumpy.json]`` names a file beside the transcript, wherever the command runs."""
+    snd, al = line
+    folder = tmp_path / "script"
+    (folder / "presets").mkdir(parents=True)
+    (folder / "presets" / "grumpy.json").write_text('{"name": "grumpy", "base": "angry"}', encoding="utf-8")
+    transcript = folder / "line.txt"
+    transcript.write_text("[presets/grumpy.json] one two three four five six seven eight", encoding="utf-8")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+
+    def fake_align(_snd, text, *a, **kw):
+        words = [w.text for w in normalize(text)]
+        return Alignment([AlignedWord(x, w.start, w.end, w.phones) for x, w in zip(words, al.words)],
+                         list(al.phones), al.duration)
+
+    monkeypatch.setattr(pipeline, "align_audio", fake_align)
+    text = transcript.read_text(encoding="utf-8")
+    r = pipeline.analyze(snd, text, transcript_path=transcript)
+    angry = pipeline.analyze(snd, alignment=al, emotion="angry")
+    assert r.emotion == "presets/grumpy.json" and np.array_equal(r.curves, angry.curves)
+    # Without the transcript's folder the path means nothing here: an error naming the tag.
+    with pytest.raises(LipSyncError, match=r"presets/grumpy\.json"):
+        pipeline.analyze(snd, text)
 
 
 def test_cli_unknown_tag_is_a_one_line_error(tmp_path, capsys, fixtures):

@@ -7,7 +7,7 @@ from voice_synth import _resonator
 from addon.engine import audio as audio_mod
 from addon.engine.alignment.fillers import (FILLER, Hesitation, base_token, dictionary_lines, is_hesitation,
                                             mark, prefer, restore)
-from addon.engine.pipeline import align_audio
+from addon.engine.alignment import align_audio
 
 
 def test_which_words_are_hesitations():

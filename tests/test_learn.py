@@ -24,7 +24,9 @@ import numpy as np
 import pytest
 
 from addon.engine import audio as audio_mod
-from addon.engine import capture, learn, pipeline, presets, visemes
+from addon.engine import learn, pipeline, presets, visemes
+from addon.engine.learning import capture
+from addon.engine.alignment import align_audio
 from addon.engine.cli import main as cli_main
 from addon.engine.errors import ImportFormatError, LipSyncError, PresetError
 
@@ -63,7 +65,7 @@ def examples():
     clips, clean = [], []
     for path, text in sources:
         snd = audio_mod.load(path)
-        al = pipeline.align_audio(snd, text)
+        al = align_audio(snd, text)
         for f in (0.85, 1.0, 1.2):
             s2, a2 = (snd, al) if f == 1.0 else stretch(snd, al, f)
             probe = learn.TrainingClip("probe", s2, a2, np.array([0.0, s2.duration]), np.zeros((2, len(CHANNELS))),

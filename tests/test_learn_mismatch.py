@@ -15,7 +15,8 @@ import json
 import numpy as np
 import pytest
 
-from addon.engine import capture, learn, presets
+from addon.engine import learn, presets
+from addon.engine.learning import capture
 from addon.engine.cli import main as cli_main
 from addon.engine.errors import ImportFormatError
 

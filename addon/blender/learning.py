@@ -17,7 +17,7 @@ from bpy.props import BoolProperty, FloatProperty, StringProperty
 
 from ..engine import learn, presets
 from ..engine.errors import LipSyncError
-from ..engine.pipeline import align_audio
+from ..engine.alignment import align_audio
 from . import compat, jobs, run, sources
 
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import bpy
 
 from ..engine import conventions, pipeline, visemes
+from ..engine.output import Result
+from ..engine.render import viseme_set_for
 from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
 from ..engine.emotion_track import DEFAULT_FADE
@@ -245,7 +247,7 @@ class Plan:
 
 @dataclass
 class Analysis:
-    result: pipeline.Result
+    result: Result
     seconds: float
 
 
@@ -256,7 +258,7 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
         # A learned preset carries its own poses, in the training mesh's
         # shape-key names.
         names = set(check_mesh(obj))
-        poses = pipeline.viseme_set_for(options.emotion).shape_keys
+        poses = viseme_set_for(options.emotion).shape_keys
         mp = {v: {k: w for k, w in mix.items() if k in names} for v, mix in poses.items()}
         mp = {v: mix for v, mix in mp.items() if mix}
         if not mp:

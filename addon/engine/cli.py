@@ -8,7 +8,8 @@ import sys
 import time
 from pathlib import Path
 
-from . import capture, presets, visemes
+from . import presets, visemes
+from .learning import capture
 from .emotion_track import DEFAULT_FADE
 from .errors import LipSyncError
 from .language.text import read_text_file
@@ -109,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
         print("error: give --json OUT and/or --csv OUT", file=sys.stderr)
         return 2
     try:
-        from .pipeline import check_output_path
+        from .output import check_output_path
 
         _check_options(args)
 

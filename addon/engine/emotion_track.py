@@ -25,7 +25,6 @@ they move from one to the other without a jump.
 from __future__ import annotations
 
 import difflib
-import json
 import re
 from dataclasses import dataclass
 from typing import Callable
@@ -34,6 +33,7 @@ import numpy as np
 
 from . import presets as presets_mod
 from .errors import TranscriptError
+from .language import normalize
 
 #: Seconds over which one preset's numbers give way to the next.
 DEFAULT_FADE = 0.3
@@ -83,8 +83,6 @@ def split_tags(text: str, known: Callable[[str], bool] = builtin_known, names: l
     the built-in ones and preset files); ``names`` are the names offered
     when a tag looks misspelt.  Raises :class:`TranscriptError` naming the
     tag and its line and column for an explicit tag that names no preset."""
-    from .language.text import normalize
-
     names = list(names) if names is not None else presets_mod.builtin_names()
     tags: list[Tag] = []
     pieces, last = [], 0
@@ -163,46 +161,3 @@ def timeline(base_label: str, changes: list[Change], fade: float) -> list[dict]:
         out.append({"emotion": c.label, "time": round(c.time, 4),
                     "fade": [round(max(0.0, c.time - fade), 4), round(c.time, 4)] if fade > 0 else None})
     return out
-
-
-def render(al, tracks, base: dict, changes: list[Change], vset, model: str, fps: float, estimate=None,
-           fade: float = DEFAULT_FADE, viseme_set: str | None = None):
-    """Per-phoneme pitch, intensity and weights, frame times and curves for
-    the line, with the emotion following ``changes`` (see :func:`mix`).
-    With no change, this is the base preset's own result."""
-    from . import prosody
-    from .errors import LipSyncError
-    from .pipeline import curves, viseme_set_for
-
-    starting = [c for c in changes if c.time <= 0]
-    if starting:
-        base = starting[-1].preset
-    later = sorted((c for c in changes if c.time > 0), key=lambda c: c.time)
-    plist, keys = [base], [json.dumps(base, sort_keys=True)]
-    index = []
-    for c in later:
-        key = json.dumps(c.preset, sort_keys=True)
-        if key not in keys:
-            plist.append(c.preset)
-            keys.append(key)
-        index.append(keys.index(key))
-    centres = np.array([(p.start + p.end) / 2 for p in al.phones])
-    spans = [(p.start, p.end) for p in al.phones]
-    results = []
-    for p in plist:
-        if changes and viseme_set_for(p, viseme_set).name != vset.name:
-            raise LipSyncError(f"preset {p.get('name', '')!r} uses the {viseme_set_for(p, viseme_set).name!r} "
-                               f"viseme set, the line's others {vset.name!r}: they cannot be mixed in one line")
-        wp = p["weights"]
-        stats, pitch, inten = prosody.for_preset(tracks, spans, wp)
-        follow = estimate.at(centres) if estimate is not None and wp.get("follow_voice", 0.0) > 0 else None
-        w, times, out = curves(al, pitch, inten, stats, vset, p, model, fps, arousal=follow)
-        results.append((pitch, inten, w, out, stats))
-    pitch, inten, w, out, stats = results[0]
-    if len(plist) == 1:
-        return pitch, inten, w, times, out, stats
-    m = mix(times, [c.time for c in later], len(plist), index, fade)
-    out = np.clip(sum(m[:, k, None] * r[3] for k, r in enumerate(results)), 0.0, 1.0)
-    mp = mix(centres, [c.time for c in later], len(plist), index, fade)
-    w = sum(mp[:, k] * r[2] for k, r in enumerate(results)) if len(centres) else w
-    return pitch, inten, w, times, out, stats

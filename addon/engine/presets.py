@@ -45,7 +45,7 @@ import copy
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from .datafile import read_object
 from .errors import PresetError
@@ -230,6 +230,18 @@ def load(name_or_path: str | os.PathLike) -> dict:
     """A built-in preset by name (``angry``) or a preset file by path."""
     path = _locate(name_or_path)
     return resolve(read_object(path), str(path))
+
+
+def finder(folder: str | os.PathLike | None = None) -> Callable[[str], dict]:
+    """A lookup for preset names in inline tags: :func:`load`, with a
+    relative ``.json`` path read from ``folder`` (the transcript's own
+    folder, so ``[presets/grumpy.json]`` means the same file wherever the
+    command runs)."""
+    def find(name: str) -> dict:
+        if folder and name.lower().endswith(".json") and not os.path.isabs(name):
+            return load(os.path.join(folder, name))
+        return load(name)
+    return find
 
 
 def save(preset: dict, path: str | os.PathLike) -> None:

@@ -38,7 +38,8 @@ the speech and pauses are), :mod:`.decoding` (pocketsphinx passes),
 :mod:`.pieces`, :mod:`.stream` and :mod:`.chunks` (how a clip is divided),
 :mod:`.estimate` (placing by estimate), :mod:`.fillers` (a hesitation
 may be a filler sound), :mod:`.bursts` (a stop after silence starts at its
-release burst), :mod:`.core` (:func:`align`).
+release burst), :mod:`.core` (:func:`align`), :mod:`.transcript`
+(:func:`align_audio`: a written transcript rather than phones).
 """
 
 from .core import align, check_transcript_matches
@@ -46,7 +47,8 @@ from .model import (FRAME, TYPICAL_DURATION, AlignedPhone, AlignedWord, AlignSet
                     typical_duration)
 from .speech import frame_levels, pauses, speech_mask, unspoken_speech
 from .chunks import plan_chunks
+from .transcript import align_audio, align_file
 
-__all__ = ["align", "check_transcript_matches", "AlignSettings", "Alignment", "AlignedWord", "AlignedPhone",
-           "FRAME", "TYPICAL_DURATION", "typical_duration", "frame_levels", "speech_mask", "pauses",
+__all__ = ["align", "align_audio", "align_file", "check_transcript_matches", "AlignSettings", "Alignment",
+           "AlignedWord", "AlignedPhone", "FRAME", "TYPICAL_DURATION", "typical_duration", "frame_levels", "speech_mask", "pauses",
            "unspoken_speech", "plan_chunks"]

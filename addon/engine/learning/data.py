@@ -10,11 +10,16 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import audio as audio_mod
 from .. import coarticulation, pauses, prosody
-from ..alignment import Alignment
+from ..alignment import Alignment, align_audio
 from ..audio import Audio
 from ..errors import LipSyncError
-from ..language.phonemes import CLASSES
+from ..framerate import frame_times
+from ..importers import read_alignment
+from ..language import CLASSES, Lexicon, read_text_file
+from ..render import phoneme_weights, rest_target
+from .capture import read_capture_csv, read_track_csv
 
 
 @dataclass
@@ -70,8 +75,6 @@ class Prepared:
 
 
 def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[str]) -> Prepared:
-    from ..pipeline import frame_times, phoneme_weights, rest_target
-
     snd, al = clip.audio, clip.alignment
     tracks = prosody.analyse(snd)
     stats, pitch, inten = prosody.for_preset(tracks, [(p.start, p.end) for p in al.phones], preset["weights"])
@@ -112,13 +115,6 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
     and ``line.txt`` (transcript) or ``line.TextGrid`` (alignment) beside it,
     unless given.  With ``track_map`` (:func:`..capture.load_track_map`)
     the CSV holds generic tracks, else ARKit blendshapes."""
-    from .. import audio as audio_mod
-    from ..capture import read_capture_csv, read_track_csv
-    from ..importers import read_alignment
-    from ..pipeline import align_audio
-    from ..language.pronounce import Lexicon
-    from ..language.text import read_text_file
-
     audio_path = Path(audio_path)
     stem = audio_path.with_suffix("")
     tracks_path = Path(tracks_path) if tracks_path else stem.with_suffix(".csv")

@@ -9,7 +9,8 @@ import copy
 import numpy as np
 
 from .. import coarticulation, mapping
-from ..language.phonemes import CLASSES
+from ..language import CLASSES
+from ..render import curves
 from .data import Prepared
 
 PARAMS = ("alpha", "theta", "phi", "c")
@@ -129,8 +130,6 @@ def params_matrix(preset: dict) -> np.ndarray:
 def viseme_curves(clip: Prepared, preset: dict, vset, fps: float) -> np.ndarray:
     """(frames, visemes): the curves the engine makes for a prepared clip
     (the full synthesis path), on the clip's model frames."""
-    from ..pipeline import curves
-
     al = copy.copy(clip.alignment)
     if clip.duration is not None:
         al.duration = clip.duration

@@ -20,13 +20,15 @@ proxies or visemes, and how to scale them: :func:`read_track_csv`.
 from __future__ import annotations
 
 import csv
+import json
 import re
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ImportFormatError
-from .conventions import canonical
+from ..conventions import canonical
+from ..errors import ImportFormatError
+from .proxies import PROXIES, VISEME_PREFIX
 
 ARKIT = ("eyeBlinkLeft eyeLookDownLeft eyeLookInLeft eyeLookOutLeft eyeLookUpLeft eyeSquintLeft eyeWideLeft "
          "eyeBlinkRight eyeLookDownRight eyeLookInRight eyeLookOutRight eyeLookUpRight eyeSquintRight "
@@ -139,12 +141,8 @@ def load_track_map(spec: str) -> dict:
     it values are used as they are.  ``time`` names the time column
     (default: ``time`` / ``seconds`` / ``Timecode`` as for ARKit captures),
     ``time_unit`` is ``s`` (default) or ``ms``."""
-    from .learning.proxies import PROXIES, VISEME_PREFIX
-
     path = Path(spec)
     if path.suffix.lower() == ".json" or path.is_file():
-        import json
-
         if not path.is_file():
             raise ImportFormatError(f"track map not found: {path}")
         try:

@@ -1,0 +1,50 @@
+"""The aligner's front end: a written transcript, not phones.
+
+:func:`align_audio` normalises the transcript (:mod:`..language`),
+pronounces every word and aligns the phones to the audio with :func:`.align`;
+the words the aligner cannot use (another script, symbols) are left out and
+said so in the alignment's notes and warnings.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures.process import BrokenProcessPool
+from typing import Callable
+
+from .. import audio as audio_mod
+from ..audio import Audio
+from ..errors import AlignmentError
+from ..language import Lexicon, describe_skipped, normalize, skipped_words
+from .core import align, check_transcript_matches
+from .model import AlignSettings, Alignment
+
+
+def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
+                settings: AlignSettings | None = None,
+                progress: Callable[[float], None] | None = None) -> Alignment:
+    """Normalise ``text``, pronounce every word and align it to ``snd``."""
+    lexicon = lexicon or Lexicon()
+    words = normalize(text)
+    prons = [lexicon.pronounce(w) for w in words]
+    try:
+        al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
+                   [w.text for w in words], [p.source for p in prons], settings, progress)
+    except (BrokenProcessPool, MemoryError):
+        raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
+                             f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
+                             "lines") from None
+    check_transcript_matches(al)
+    skipped = skipped_words(text)
+    if skipped:
+        n = len(skipped)
+        warning = (f"{n} word{'s' if n > 1 else ''} of the transcript left out, the aligner cannot use "
+                   f"{'them' if n > 1 else 'it'}: {describe_skipped(skipped)}")
+        al.notes.insert(0, warning)
+        al.warnings.insert(0, warning)
+    return al
+
+
+def align_file(path: str | os.PathLike, text: str, **kw) -> Alignment:
+    """:func:`align_audio` on an audio file."""
+    return align_audio(audio_mod.load(path), text, **kw)
