@@ -29,7 +29,7 @@ AMOUNTS = (0.0, 0.5, 1.0)
 
 
 def preset(amount):
-    p = presets.load("neutral")
+    p = presets.read("neutral")
     p["weights"]["follow_voice"] = amount
     return p
 

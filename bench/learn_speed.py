@@ -53,7 +53,7 @@ def main():
     vs = visemes.load("arkit")
     poses = {v: {str(c): float(rng.uniform(0.2, 0.9)) for c in rng.choice(CHANNELS, 5, replace=False)}
              for v in vs.visemes if v != "sil"}
-    truth = presets.load("neutral")
+    truth = presets.read("neutral")
     truth["learned"] = {"viseme_set": "arkit", "targets": poses}
     truth = presets.validate(truth)
     truth_set = visemes.with_targets(vs, poses)

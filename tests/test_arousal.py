@@ -83,7 +83,7 @@ def test_arousal_command(tmp_path, capsys, lines):
 
 
 def follow(amount):
-    p = presets.load("neutral")
+    p = presets.read("neutral")
     p["weights"]["follow_voice"] = amount
     return p
 
@@ -124,7 +124,7 @@ def test_analyze_json_has_the_arousal_and_its_track(lines):
 
 
 def test_follow_voice_is_a_checked_preset_field():
-    p = presets.load("neutral")
+    p = presets.read("neutral")
     assert p["weights"]["follow_voice"] == 0.5   # the built-in neutral follows the voice half way
     p["weights"]["follow_voice"] = 2
     with pytest.raises(presets.PresetError, match="follow_voice"):

@@ -497,7 +497,7 @@ def test_preset_base_file_beside_the_preset(tmp_path):
     (tmp_path / "b.json").write_text('{"name": "b", "base": "angry", "gain": 1.5}')
     (tmp_path / "p.json").write_text('{"name": "p", "base": "b.json"}')
     p = presets.load(tmp_path / "p.json")
-    assert p["name"] == "p" and p["gain"] == 1.5
+    assert p.name == "p" and p.gain == 1.5
 
 
 RANGE = '{"range": [0, 0.5, 1]}'

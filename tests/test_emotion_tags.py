@@ -169,7 +169,7 @@ def test_cli_unknown_tag_is_a_one_line_error(tmp_path, capsys, fixtures):
 
 def test_presets_with_different_viseme_sets_cannot_share_a_line(line, tmp_path):
     snd, al = line
-    p = presets.load("neutral")
+    p = presets.read("neutral")
     p["learned"] = {"viseme_set": "arkit", "targets": {"aa": {"jawOpen": 1.0}}}
     with pytest.raises(Exception, match="viseme set"):
         pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.5, p)])

@@ -42,7 +42,7 @@ def _truth():
     vs = visemes.load("arkit")
     poses = {v: {str(ch): round(float(rng.uniform(0.2, 0.9)), 3) for ch in rng.choice(CHANNELS, 5, replace=False)}
              for v in vs.visemes if v != "sil"}
-    p = presets.load("neutral")
+    p = presets.read("neutral")
     p["name"] = "character B"
     p["dominance"]["classes"]["vowel"].update(theta=8.0, phi=10.0)
     p["dominance"]["classes"]["bilabial"].update(alpha=6.0, theta=60.0, phi=40.0)
@@ -115,7 +115,7 @@ def test_learned_preset_plugs_into_generation(examples, tmp_path):
     preset_path, report_path = result.save(tmp_path / "angry_b.json")
     report = json.loads(report_path.read_text())
     assert report["clips"]["heldout"] == [clips[5].name] and report["base_preset"] == "angry"
-    loaded = presets.load(preset_path)
+    loaded = presets.read(preset_path)
     assert loaded["learned"]["report"] == "angry_b.report.json"
     r = pipeline.analyze(SAMPLE / "hello.wav", (SAMPLE / "hello.txt").read_text(), emotion=str(preset_path))
     assert r.viseme_set.name == "arkit"
@@ -130,7 +130,7 @@ def test_learned_preset_plugs_into_generation(examples, tmp_path):
 
 
 def test_malformed_learned_section_is_named():
-    p = presets.load("neutral")
+    p = presets.read("neutral")
     p["learned"] = {"viseme_set": "arkit", "targets": {"aa": {"jawOpen": "wide"}}}
     with pytest.raises(PresetError, match="learned.targets.aa.jawOpen"):
         presets.validate(p)
@@ -202,7 +202,7 @@ def test_learn_command_line(examples, tmp_path, capsys):
     assert cli_main(["learn", *wavs, "--out", str(out), "--emotion", "sad"]) == 0
     said = capsys.readouterr().out
     assert "held out" in said and "wrote" in said
-    assert presets.load(out)["name"] == "mine"
+    assert presets.load(out).name == "mine"
     assert (tmp_path / "mine.report.json").is_file()
     assert cli_main(["learn", wavs[0], "--out", str(out)]) == 1
     assert "at least two clips" in capsys.readouterr().err

@@ -48,7 +48,7 @@ def test_learning_beats_the_start_on_unseen_clips(captured):
     assert r["better_than_builtin"] and r["kept"] == "learned" and "is better" in r["verdict"]
     # Proxies say nothing about a rig's poses: the preset carries dominance only.
     assert "learned" not in result.preset
-    assert result.preset["dominance"] != presets.load("neutral")["dominance"]
+    assert result.preset["dominance"] != presets.read("neutral")["dominance"]
 
 
 def test_the_start_is_kept_unless_told(captured):
@@ -58,7 +58,7 @@ def test_the_start_is_kept_unless_told(captured):
     r = learn.learn(clips, emotion="sad", viseme_set="arkit", name="same", max_iter=0)
     assert not r.report["better_than_builtin"] and r.report["kept"] == "start"
     assert "NOT better" in r.report["verdict"]
-    assert r.preset["name"] == "same" and r.preset["dominance"] == presets.load("sad")["dominance"]
+    assert r.preset["name"] == "same" and r.preset["dominance"] == presets.read("sad")["dominance"]
     forced = learn.learn(clips, emotion="sad", viseme_set="arkit", name="same", max_iter=0, keep_learned=True)
     assert forced.report["kept"] == "learned"
 
@@ -86,7 +86,7 @@ def test_articulography_csv_on_the_command_line(captured, tmp_path, capsys):
     assert "capture delay" in said and "leave-one-clip-out" in said and "lip_aperture" in said
     report = json.loads(out.with_name(out.stem + ".report.json").read_text())
     assert report["channels"] == ["jaw", "lip_aperture", "rounding"] and len(report["per_clip"]) == 3
-    assert presets.load(out)["name"] == out.stem
+    assert presets.load(out).name == out.stem
     # A column the map names but the file lacks: one line naming the file.
     assert cli_main(["learn", *wavs, "--out", str(out), "--track-map",
                     "time=t_ms,time_unit=ms,JawY_mm=jaw,Nope=lip_aperture"]) == 1

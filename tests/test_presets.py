@@ -10,17 +10,34 @@ def test_all_builtin_presets_load():
     assert presets.builtin_names() == ["neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted"]
     for name in presets.builtin_names():
         p = presets.load(name)
-        assert p["name"] == name
-        assert set(p["dominance"]["classes"]) >= {"vowel", "bilabial", "silence"}
+        assert isinstance(p, presets.Preset) and p.name == name
+        assert set(p.dominance.classes) >= {"vowel", "bilabial", "silence"}
+        assert isinstance(p.dominance.classes["vowel"].theta, float)
+
+
+def test_a_preset_is_its_json_document_typed():
+    """Preset.to_dict gives back the resolved JSON document field for field, and from_dict reads it."""
+    for name in presets.builtin_names():
+        doc = presets.read(name)
+        p = presets.load(name)
+        assert p.to_dict() == doc
+        assert presets.Preset.from_dict(doc, name) == p
+    p = presets.load("happy")
+    assert p.weights.range_scale["vowel"] == tuple(presets.read("happy")["weights"]["range_scale"]["vowel"])
+    assert p.rules.deletion.phones and p.learned is None
+    # A document handed over as a dict may name a base, and is checked.
+    assert presets.as_preset({"name": "x", "base": "sad"}).dominance == presets.load("sad").dominance
+    with pytest.raises(PresetError, match="gain"):
+        presets.as_preset({"name": "x", "gain": "loud"})
 
 
 def test_angry_and_happy_wider_and_sharper_than_sad():
     sad, angry, happy = (presets.load(n) for n in ("sad", "angry", "happy"))
     for loud in (angry, happy):
-        assert loud["weights"]["range_scale"]["vowel"][2] > sad["weights"]["range_scale"]["vowel"][2]
-        assert loud["rules"]["t_onset"] < sad["rules"]["t_onset"]
-        assert loud["dominance"]["classes"]["vowel"]["theta"] > sad["dominance"]["classes"]["vowel"]["theta"]
-        assert loud["smoothing"] < sad["smoothing"]
+        assert loud.weights.range_scale["vowel"][2] > sad.weights.range_scale["vowel"][2]
+        assert loud.rules.t_onset < sad.rules.t_onset
+        assert loud.dominance.classes["vowel"].theta > sad.dominance.classes["vowel"].theta
+        assert loud.smoothing < sad.smoothing
 
 
 def write(tmp_path, doc):
@@ -32,8 +49,8 @@ def write(tmp_path, doc):
 def test_user_preset_overrides_base(tmp_path):
     f = write(tmp_path, {"name": "mine", "base": "angry", "rules": {"t_onset": 0.2}})
     p = presets.load(f)
-    assert p["rules"]["t_onset"] == 0.2
-    assert p["weights"]["range_scale"]["vowel"] == presets.load("angry")["weights"]["range_scale"]["vowel"]
+    assert p.rules.t_onset == 0.2
+    assert p.weights.range_scale["vowel"] == presets.load("angry").weights.range_scale["vowel"]
 
 
 @pytest.mark.parametrize("doc, field", [
@@ -66,9 +83,9 @@ def test_invalid_json_and_missing_file(tmp_path):
 
 def test_flat_round_trip_and_save(tmp_path):
     p = presets.load("happy")
-    assert presets.from_flat(presets.to_flat(p)) == p
+    assert presets.from_flat(presets.to_flat(p)) == p.to_dict()
     presets.save(p, tmp_path / "h.json")
     assert presets.load(tmp_path / "h.json") == p
-    p["rules"]["apex"] = 7
+    p.rules.apex = 7
     with pytest.raises(PresetError, match="rules.apex"):
         presets.save(p, tmp_path / "bad.json")

@@ -108,8 +108,8 @@ class LIPSYNC_OT_preset_add(bpy.types.Operator):
             return {"CANCELLED"}
         try:
             preset = st.preset()
-            preset["name"] = name
-            preset["description"] = f"Saved from the Lip Sync panel (based on {st.emotion})"
+            preset.name = name
+            preset.description = f"Saved from the Lip Sync panel (based on {st.emotion})"
             presets.save(preset, path)
         except LipSyncError as exc:
             self.report({"ERROR"}, str(exc))

@@ -152,15 +152,15 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
     dictionary: StringProperty(name="Dictionary", subtype="FILE_PATH",
                                description="Your own pronunciations: lines of WORD PH1 PH2 ... (ARPAbet)")
 
-    def preset(self) -> dict:
+    def preset(self) -> presets.Preset:
         """The preset as edited in the panel, validated."""
         if not self.preset_values:
             return presets.load(self.emotion)
         flat = {item.path: item.value() for item in self.preset_values}
         flat.setdefault("name", self.emotion)
-        return presets.resolve(presets.from_flat(flat), f"preset {self.emotion!r} (as edited)")
+        return presets.as_preset(presets.from_flat(flat), f"preset {self.emotion!r} (as edited)")
 
-    def load_preset(self, preset: dict, name: str) -> None:
+    def load_preset(self, preset: presets.Preset | dict, name: str) -> None:
         self.preset_values.clear()
         for path, value in presets.to_flat(preset).items():
             if path in ("name", "description"):

@@ -14,6 +14,7 @@ import bpy
 
 from ..engine import conventions, pipeline, visemes
 from ..engine.output import Result
+from ..engine.presets import Preset
 from ..engine.render import viseme_set_for
 from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
@@ -27,7 +28,7 @@ from .sources import Clip, scene_fps
 class Options:
     """How to lip-sync, as plain values."""
 
-    emotion: dict                        # a resolved preset
+    emotion: Preset                      # the emotion preset
     coarticulation: str = "dominance"
     tolerance: float = 0.0               # 0: a key on every frame
     dictionary: str | None = None
@@ -254,7 +255,7 @@ class Analysis:
 def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
     """Read a run's inputs from Blender (an empty mapping is filled in first,
     see :func:`mesh_mapping`)."""
-    if options.emotion.get("learned"):
+    if options.emotion.learned is not None:
         # A learned preset carries its own poses, in the training mesh's
         # shape-key names.
         names = set(check_mesh(obj))
@@ -263,7 +264,7 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
         mp = {v: mix for v, mix in mp.items() if mix}
         if not mp:
             wanted = sorted({k for mix in poses.values() for k in mix})
-            raise LipSyncError(f"the learned preset {options.emotion.get('name', '')!r} drives shape keys "
+            raise LipSyncError(f"the learned preset {options.emotion.name!r} drives shape keys "
                                f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
                                "has none of them")
         set_source = None

@@ -38,6 +38,7 @@ import numpy as np
 from . import smoothing
 from .pauses import settings as timing_settings
 from .language.phonemes import SILENCE, phone_class
+from .presets import Preset
 
 CLOSURE_CLASSES = ("bilabial", "labiodental")
 
@@ -90,29 +91,29 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
-def rules(events: list[Event], times: np.ndarray, n_visemes: int, preset: dict) -> np.ndarray:
+def rules(events: list[Event], times: np.ndarray, n_visemes: int, preset: Preset) -> np.ndarray:
     """The rule-based model (see module docstring)."""
-    r = preset["rules"]
+    r = preset.rules
     out = np.zeros((len(times), n_visemes))
-    inf = r["influence"]
+    inf = r.influence
     for k, ev in enumerate(events):
         prev = events[k - 1] if k > 0 and events[k - 1].end >= ev.start - 0.03 else None
         nxt = events[k + 1] if k + 1 < len(events) and events[k + 1].start <= ev.end + 0.03 else None
         me = "V" if ev.cls == "vowel" else "C"
         if prev is not None:
             ctx = ("V" if prev.cls == "vowel" else "C") + me
-            onset = inf[ctx] * min(r["t_onset"], prev.end - prev.start)
+            onset = inf[ctx] * min(r.t_onset, prev.end - prev.start)
         else:
-            onset = r["t_onset"]   # from rest: the mouth has all the time it needs
+            onset = r.t_onset   # from rest: the mouth has all the time it needs
         if nxt is not None:
             ctx = me + ("V" if nxt.cls == "vowel" else "C")
-            offset = inf[ctx] * min(r["t_offset"], nxt.end - nxt.start)
+            offset = inf[ctx] * min(r.t_offset, nxt.end - nxt.start)
         else:
-            offset = r["t_offset"]
+            offset = r.t_offset
         if ev.cls in CLOSURE_CLASSES:
             peak_a, peak_b = ev.start, ev.end        # hold the closure through the phoneme
         else:
-            peak_a = peak_b = ev.start + r["apex"] * (ev.end - ev.start)
+            peak_a = peak_b = ev.start + r.apex * (ev.end - ev.start)
         lo = int(times.searchsorted(peak_a - onset - 1e-9))
         hi = int(times.searchsorted(peak_b + offset + 1e-9))
         if hi <= lo:
@@ -143,11 +144,10 @@ def segments_with_silence(events: list[Event], duration: float, rest: int | None
     return segs
 
 
-def dominance_params(segs: list[Event], preset: dict) -> np.ndarray:
+def dominance_params(segs: list[Event], preset: Preset) -> np.ndarray:
     """(n, 4) array of alpha, theta, phi, c per segment from its class."""
-    cl = preset["dominance"]["classes"]
-    return np.array([[cl[s.cls]["alpha"], cl[s.cls]["theta"], cl[s.cls]["phi"], cl[s.cls]["c"]]
-                     for s in segs], float)
+    cl = preset.dominance.classes
+    return np.array([[cl[s.cls].alpha, cl[s.cls].theta, cl[s.cls].phi, cl[s.cls].c] for s in segs], float)
 
 
 def dominance_matrix(times: np.ndarray, centres: np.ndarray, half: np.ndarray,
@@ -162,7 +162,7 @@ def dominance_matrix(times: np.ndarray, centres: np.ndarray, half: np.ndarray,
     return params[:, 0:1] * np.exp(-rate * dist)
 
 
-def dominance(events: list[Event], times: np.ndarray, n_visemes: int, preset: dict,
+def dominance(events: list[Event], times: np.ndarray, n_visemes: int, preset: Preset,
               duration: float, rest: int | None, rest_weight: float = 0.0,
               block: int = 512) -> np.ndarray:
     """The Cohen-Massaro model (see module docstring)."""
@@ -172,7 +172,7 @@ def dominance(events: list[Event], times: np.ndarray, n_visemes: int, preset: di
         return out
     params = dominance_params(segs, preset)
     centres = np.array([s.centre for s in segs])
-    half = preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs])
+    half = preset.dominance.plateau * np.array([(s.end - s.start) / 2 for s in segs])
     targets = np.zeros((len(segs), n_visemes))
     for k, s in enumerate(segs):
         if s.viseme >= 0:

@@ -53,10 +53,10 @@ class Tag:
 
 @dataclass
 class Change:
-    """The line switches to ``preset`` (a resolved preset dict) at ``time`` s."""
+    """The line switches to ``preset`` at ``time`` s."""
 
     time: float
-    preset: dict
+    preset: presets_mod.Preset
     label: str
 
 

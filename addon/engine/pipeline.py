@@ -79,13 +79,13 @@ def _voice_beside_alignment(snd: Audio, settings: AlignSettings | None, model: d
     return Background(measure_voice, snd, model, settings=settings)
 
 
-def _once_per_name(lookup: Callable[[str], dict]) -> Callable[[str], dict]:
+def _once_per_name(lookup: Callable[[str], presets.Preset]) -> Callable[[str], presets.Preset]:
     """``lookup`` reading each preset once (a tag's name is looked up when
     the tag is found and again when it is timed); every caller gets its own
     copy.  A name that fails is not remembered, so it fails again alike."""
-    found: dict[str, dict] = {}
+    found: dict[str, presets.Preset] = {}
 
-    def once(name: str) -> dict:
+    def once(name: str) -> presets.Preset:
         if name not in found:
             found[name] = lookup(name)
         return copy.deepcopy(found[name])
@@ -94,22 +94,23 @@ def _once_per_name(lookup: Callable[[str], dict]) -> Callable[[str], dict]:
 
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
-            viseme_set: str | None = None, emotion: str | dict = "neutral",
+            viseme_set: str | None = None, emotion: str | os.PathLike | presets.Preset | dict = "neutral",
             coarticulation_model: str = "dominance", fps=30, dictionary: str | None = None,
             settings: AlignSettings | None = None,
             progress: Callable[[str, float], None] | None = None,
             emotion_changes: list | None = None, emotion_fade: float = emotion_track.DEFAULT_FADE,
-            emotion_lookup: Callable[[str], dict] | None = None,
+            emotion_lookup: Callable[[str], presets.Preset] | None = None,
             transcript_path: str | os.PathLike | None = None) -> Result:
     """Audio + transcript (or an imported alignment) -> viseme curves.
 
-    ``emotion`` is a built-in preset name, a preset file path or a preset
-    dict; ``viseme_set`` a built-in set name or a file path (default:
+    ``emotion`` is a built-in preset name, a preset file path, a
+    :class:`.presets.Preset` or a preset document (a dict, which may name a
+    ``base``); ``viseme_set`` a built-in set name or a file path (default:
     ``default``, or the set a learned preset was trained with).  ``progress``
     is called with (step, fraction done).
 
     Inline tags in ``text`` (``[angry]``) and ``emotion_changes`` ((time s,
-    preset name or dict) pairs, e.g. from timeline markers) change the
+    preset name, Preset or dict) pairs, e.g. from timeline markers) change the
     emotion inside the line, fading over ``emotion_fade`` s; see
     :mod:`.emotion_track`.  ``emotion_lookup`` resolves a tag's name
     (default: :func:`presets.finder`: built-in names, and preset files
@@ -122,7 +123,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
 
     fps = parse_fps(fps)
     background = None
-    preset = presets.resolve(dict(emotion), "preset") if isinstance(emotion, dict) else presets.load(emotion)
+    preset = presets.load(emotion) if isinstance(emotion, (str, os.PathLike)) else presets.as_preset(emotion)
     vset = viseme_set_for(preset, viseme_set)
     check_model(coarticulation_model)
     folder = os.path.dirname(os.path.abspath(transcript_path)) if transcript_path else None
@@ -164,8 +165,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     changes = [emotion_track.Change(t, lookup(name), name)
                for t, name in emotion_track.tag_times(tags, [w.start for w in al.words], al.duration)]
     for t, p in emotion_changes or []:
-        p = presets.resolve(dict(p), "preset") if isinstance(p, dict) else lookup(p)
-        changes.append(emotion_track.Change(float(t), p, p.get("name", "")))
+        p = lookup(p) if isinstance(p, str) else presets.as_preset(p)
+        changes.append(emotion_track.Change(float(t), p, p.name))
     report("curves", 0.9)
     r = render(al, tracks, preset, changes, vset, model=coarticulation_model, fps=fps, estimate=voice,
                fade=emotion_fade, viseme_set=viseme_set)
@@ -174,7 +175,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     if not r.stats.voiced:
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
     closure = coarticulation.closure_track(r.times, [(p.phone, p.start, p.end) for p in al.phones])
-    emotions = emotion_track.timeline(preset.get("name", str(emotion)), changes, emotion_fade)
+    label = preset.name or (os.fspath(emotion) if isinstance(emotion, (str, os.PathLike)) else "preset")
+    emotions = emotion_track.timeline(label, changes, emotion_fade)
     return Result(duration=al.duration, fps=fps, viseme_set=vset, emotion=emotions[0]["emotion"],
                   model=coarticulation_model, alignment=al, pitch=r.pitch, intensity=r.intensity,
                   weights=r.weights, times=r.times, curves=r.curves, notes=notes, closure=closure,

@@ -37,6 +37,10 @@ Fields (see ``data/presets/neutral.json`` for values):
     other visemes (0-1); closures always reach their own target.
 ``smoothing``  Gaussian smoothing of the curves, seconds (0 = none).
 ``gain``  overall multiplier on every weight before clamping to [0, 1].
+
+In the engine a preset is a :class:`Preset`: read and checked once
+(:func:`load`), then passed around typed; :meth:`Preset.to_dict` gives the
+JSON document back, field for field.
 """
 
 from __future__ import annotations
@@ -44,12 +48,13 @@ from __future__ import annotations
 import copy
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from .datafile import read_object
 from .errors import PresetError
-from .language.phonemes import CLASSES
+from .language.phonemes import CLASSES, PHONEMES
 
 DATA = Path(__file__).parent / "data" / "presets"
 BUILTIN = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
@@ -126,7 +131,6 @@ def validate(p: dict, source: str = "preset") -> dict:
         inf[c] = _num(source, f"rules.influence.{c}", inf.get(c), 0.0, 3.0)
     de = section(r, "deletion", "rules.deletion")
     no_extra(de, ("phones", "threshold"), "rules.deletion")
-    from .language.phonemes import PHONEMES
     if not isinstance(de.get("phones"), list) or any(ph not in PHONEMES for ph in de["phones"]):
         raise PresetError(source, "rules.deletion.phones", f"must be a list of ARPAbet phonemes, got {de.get('phones')!r}")
     de["threshold"] = _num(source, "rules.deletion.threshold", de.get("threshold"), 0.0, 0.5)
@@ -151,6 +155,134 @@ def validate(p: dict, source: str = "preset") -> dict:
     if not isinstance(p.get("name", ""), str):
         raise PresetError(source, "name", "must be text")
     return p
+
+
+@dataclass
+class Weights:
+    """``weights``: how pitch and intensity become viseme weights."""
+
+    range_scale: dict[str, tuple[float, float, float]]   # phone class -> (s_min, s_p, s_max)
+    other_source: str
+    pitch_range: str | tuple[float, float]               # auto, male, female or (low, high) Hz
+    intensity_floor_db: float
+    follow_voice: float = 0.0
+
+
+@dataclass
+class Deletion:
+    phones: tuple[str, ...]
+    threshold: float
+
+
+@dataclass
+class Rules:
+    """``rules``: the rule-based coarticulation model's numbers."""
+
+    t_onset: float
+    t_offset: float
+    apex: float
+    influence: dict[str, float]          # context (VV, VC, CV, CC) -> factor
+    deletion: Deletion
+    diphthong_split: float
+
+
+@dataclass
+class DominanceShape:
+    """Cohen-Massaro parameters of one phone class."""
+
+    alpha: float
+    theta: float
+    phi: float
+    c: float
+
+
+@dataclass
+class Dominance:
+    plateau: float
+    classes: dict[str, DominanceShape]
+
+
+@dataclass
+class Learned:
+    """What a preset trained from animation adds: its viseme set and the
+    poses learned for it, in the training mesh's shape keys."""
+
+    viseme_set: str
+    targets: dict[str, dict[str, float]]
+    report: str | None = None
+
+
+@dataclass
+class Preset:
+    """An emotion preset, checked (see the module docstring for each field)."""
+
+    name: str
+    weights: Weights
+    rules: Rules
+    dominance: Dominance
+    closure_strength: float
+    smoothing: float
+    gain: float
+    description: str = ""
+    learned: Learned | None = None
+
+    @classmethod
+    def from_dict(cls, doc: dict, source: str = "preset") -> "Preset":
+        """A complete preset document (no ``base``), checked: a malformed
+        field raises :class:`PresetError` naming it."""
+        d = validate(copy.deepcopy(doc), source)
+        w, r, dm = d["weights"], d["rules"], d["dominance"]
+        pr = w["pitch_range"]
+        le = d.get("learned")
+        return cls(
+            name=d.get("name", ""),
+            description=d.get("description", ""),
+            weights=Weights({c: tuple(v) for c, v in w["range_scale"].items()}, w["other_source"],
+                            tuple(pr) if isinstance(pr, list) else pr, w["intensity_floor_db"], w["follow_voice"]),
+            rules=Rules(r["t_onset"], r["t_offset"], r["apex"], dict(r["influence"]),
+                        Deletion(tuple(r["deletion"]["phones"]), r["deletion"]["threshold"]), r["diphthong_split"]),
+            dominance=Dominance(dm["plateau"], {c: DominanceShape(**v) for c, v in dm["classes"].items()}),
+            closure_strength=d["closure"]["strength"], smoothing=d["smoothing"], gain=d["gain"],
+            learned=Learned(le["viseme_set"], {v: dict(m) for v, m in le["targets"].items()}, le.get("report"))
+            if le is not None else None)
+
+    def to_dict(self) -> dict:
+        """The preset as its JSON document."""
+        w, r, dm = self.weights, self.rules, self.dominance
+        doc = {"name": self.name}
+        if self.description:
+            doc["description"] = self.description
+        doc.update({
+            "weights": {"range_scale": {c: list(v) for c, v in w.range_scale.items()},
+                        "other_source": w.other_source,
+                        "pitch_range": list(w.pitch_range) if isinstance(w.pitch_range, tuple) else w.pitch_range,
+                        "intensity_floor_db": w.intensity_floor_db, "follow_voice": w.follow_voice},
+            "rules": {"t_onset": r.t_onset, "t_offset": r.t_offset, "apex": r.apex, "influence": dict(r.influence),
+                      "deletion": {"phones": list(r.deletion.phones), "threshold": r.deletion.threshold},
+                      "diphthong_split": r.diphthong_split},
+            "dominance": {"plateau": dm.plateau,
+                          "classes": {c: {"alpha": v.alpha, "theta": v.theta, "phi": v.phi, "c": v.c}
+                                      for c, v in dm.classes.items()}},
+            "closure": {"strength": self.closure_strength},
+            "smoothing": self.smoothing,
+            "gain": self.gain,
+        })
+        if self.learned is not None:
+            doc["learned"] = {"viseme_set": self.learned.viseme_set,
+                              "targets": {v: dict(m) for v, m in self.learned.targets.items()}}
+            if self.learned.report is not None:
+                doc["learned"]["report"] = self.learned.report
+        return doc
+
+    def key(self) -> str:
+        """A text that is equal for two presets exactly when all their numbers are."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+
+def as_preset(preset: "Preset | dict", source: str = "preset") -> Preset:
+    """``preset`` as a :class:`Preset`: a preset document (a dict, which may
+    name a ``base``) is resolved and checked."""
+    return preset if isinstance(preset, Preset) else Preset.from_dict(resolve(dict(preset), source), source)
 
 
 def _validate_learned(le, source: str) -> None:
@@ -226,31 +358,42 @@ def _locate(name_or_path: str | os.PathLike, source: str = "preset") -> Path:
     return path
 
 
-def load(name_or_path: str | os.PathLike) -> dict:
-    """A built-in preset by name (``angry``) or a preset file by path."""
+def read(name_or_path: str | os.PathLike) -> dict:
+    """The JSON document of a built-in preset by name (``angry``) or of a
+    preset file by path, with its ``base`` applied, checked."""
     path = _locate(name_or_path)
     return resolve(read_object(path), str(path))
 
 
-def finder(folder: str | os.PathLike | None = None) -> Callable[[str], dict]:
+def load(name_or_path: str | os.PathLike) -> Preset:
+    """A built-in preset by name (``angry``) or a preset file by path."""
+    path = _locate(name_or_path)
+    return Preset.from_dict(resolve(read_object(path), str(path)), str(path))
+
+
+def finder(folder: str | os.PathLike | None = None) -> Callable[[str], Preset]:
     """A lookup for preset names in inline tags: :func:`load`, with a
     relative ``.json`` path read from ``folder`` (the transcript's own
     folder, so ``[presets/grumpy.json]`` means the same file wherever the
     command runs)."""
-    def find(name: str) -> dict:
+    def find(name: str) -> Preset:
         if folder and name.lower().endswith(".json") and not os.path.isabs(name):
             return load(os.path.join(folder, name))
         return load(name)
     return find
 
 
-def save(preset: dict, path: str | os.PathLike) -> None:
-    validate(copy.deepcopy(preset), str(path))
-    Path(path).write_text(json.dumps(preset, indent=1) + "\n", encoding="utf-8")
+def save(preset: Preset | dict, path: str | os.PathLike) -> None:
+    """Write ``preset`` (checked first) as a JSON preset file."""
+    doc = preset.to_dict() if isinstance(preset, Preset) else preset
+    validate(copy.deepcopy(doc), str(path))
+    Path(path).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
 
 
-def to_flat(preset: dict, prefix: str = "") -> dict[str, Any]:
+def to_flat(preset: Preset | dict, prefix: str = "") -> dict[str, Any]:
     """Preset as {"rules.influence.VC": 0.6, ...}: what a UI lists field by field."""
+    if isinstance(preset, Preset):
+        preset = preset.to_dict()
     out: dict[str, Any] = {}
     for k, v in preset.items():
         key = f"{prefix}{k}"

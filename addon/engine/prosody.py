@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .audio import Audio
+from .presets import Weights
 
 #: Pitch ranges cited by the paper (Baken & Orlikoff), Hz.
 PITCH_RANGES = {"male": (85.0, 180.0), "female": (165.0, 255.0)}
@@ -109,13 +110,12 @@ def clip_stats(tracks: Tracks, intensity_floor_db: float = 50.0,
     return ClipStats(float(f_min), float(f_mean), float(f_max), float(i_min), i_mean, i_max, has_voice)
 
 
-def for_preset(tracks: Tracks, spans: list[tuple[float, float]], weights: dict
+def for_preset(tracks: Tracks, spans: list[tuple[float, float]], weights: Weights
                ) -> tuple[ClipStats, np.ndarray, np.ndarray]:
     """The clip's extremes (:func:`clip_stats`) as a preset's ``weights``
     section reads them (its ``intensity_floor_db`` and ``pitch_range``), and
     each span's mean pitch and intensity (:func:`phoneme_means`)."""
-    pr = weights["pitch_range"]
-    stats = clip_stats(tracks, weights["intensity_floor_db"], tuple(pr) if isinstance(pr, list) else pr)
+    stats = clip_stats(tracks, weights.intensity_floor_db, weights.pitch_range)
     pitch, inten = phoneme_means(tracks, spans, stats)
     return stats, pitch, inten
 

@@ -13,7 +13,6 @@ The pipeline, the emotion track and the learner all render through here.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +24,7 @@ from .emotion_track import DEFAULT_FADE, Change, mix
 from .errors import LipSyncError
 from .framerate import frame_times
 from .language import phone_class
+from .presets import Preset
 
 #: The coarticulation models.
 MODELS = ("dominance", "rules")
@@ -37,9 +37,9 @@ def check_model(model: str) -> str:
     return model
 
 
-def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: dict) -> np.ndarray:
+def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: Preset) -> np.ndarray:
     """(W_min, W_p, W_max) of each phoneme's (first) viseme, scaled by the preset."""
-    scale = preset["weights"]["range_scale"]
+    scale = preset.weights.range_scale
     out = np.zeros((len(phones), 3))
     for k, p in enumerate(phones):
         vs = vset.of(p)
@@ -49,64 +49,64 @@ def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: dict) -> np
 
 
 def phoneme_weights(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
-                    vset: visemes.VisemeSet, preset: dict, arousal: np.ndarray | None = None) -> np.ndarray:
+                    vset: visemes.VisemeSet, preset: Preset, arousal: np.ndarray | None = None) -> np.ndarray:
     """Equations 1-2: each phoneme's viseme weight from its pitch and intensity.
     ``arousal`` (per phoneme, -1 to 1) widens or narrows the ranges by the
     preset's ``weights.follow_voice``."""
     phones = [p.phone for p in alignment.phones]
     ranges = phone_ranges(phones, vset, preset)
-    amount = preset["weights"].get("follow_voice", 0.0)
+    amount = preset.weights.follow_voice
     if arousal is not None and amount > 0 and len(phones):
         ranges = np.clip(ranges * arousal_mod.range_factor(arousal, amount)[:, None], 0.0, 1.0)
-    return weights.phoneme_weights(phones, pitch, intensity, stats, ranges, preset["weights"]["other_source"])
+    return weights.phoneme_weights(phones, pitch, intensity, stats, ranges, preset.weights.other_source)
 
 
-def rest_target(vset: visemes.VisemeSet, preset: dict) -> tuple[int | None, float]:
+def rest_target(vset: visemes.VisemeSet, preset: Preset) -> tuple[int | None, float]:
     """The viseme silence shows and its weight (None, 0: silence is the basis)."""
     rest = vset.rest
     if not rest:
         return None, 0.0
     i = vset.index(rest)
-    return i, float(vset.ranges[i][1] * preset["weights"]["range_scale"]["silence"][1])
+    return i, float(vset.ranges[i][1] * preset.weights.range_scale["silence"][1])
 
 
 def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats: prosody.ClipStats,
-           vset: visemes.VisemeSet, preset: dict, model: str, fps: float, arousal: np.ndarray | None = None
+           vset: visemes.VisemeSet, preset: Preset, model: str, fps: float, arousal: np.ndarray | None = None
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One preset's (weight per phoneme, frame times, viseme curves (frames, visemes))."""
     check_model(model)
     w = phoneme_weights(alignment, pitch, intensity, stats, vset, preset, arousal)
     times = frame_times(alignment.duration, fps)
     spans = [(p.phone, p.start, p.end) for p in alignment.phones]
-    split = preset["rules"]["diphthong_split"]
+    split = preset.rules.diphthong_split
     n_v = len(vset.visemes)
     if model == "rules":
-        de = preset["rules"]["deletion"]
-        kept, kw = coarticulation.delete_short(spans, w, de["phones"], de["threshold"])
+        de = preset.rules.deletion
+        kept, kw = coarticulation.delete_short(spans, w, de.phones, de.threshold)
         events = coarticulation.build_events(kept, kw, vset, split)
         out = coarticulation.rules(events, times, n_v, preset)
     else:
         events = coarticulation.build_events(spans, w, vset, split)
         rest_i, rest_w = rest_target(vset, preset)
         out = coarticulation.dominance(events, times, n_v, preset, alignment.duration, rest_i, rest_w)
-    out = coarticulation.smooth(out, fps, preset["smoothing"])
+    out = coarticulation.smooth(out, fps, preset.smoothing)
     out = pauses.force_rest(out, times, [(p.start, p.end) for p in alignment.phones], alignment.duration)
-    out = coarticulation.enforce_closures(out, times, events, preset["closure"]["strength"])
-    out = np.clip(out * preset["gain"], 0.0, 1.0)
+    out = coarticulation.enforce_closures(out, times, events, preset.closure_strength)
+    out = np.clip(out * preset.gain, 0.0, 1.0)
     return w, times, out
 
 
-def viseme_set_for(preset: dict, viseme_set: str | None = None) -> visemes.VisemeSet:
+def viseme_set_for(preset: Preset, viseme_set: str | None = None) -> visemes.VisemeSet:
     """The viseme set to use: ``viseme_set`` (default: ``default``), unless
     the preset was learned from animation, whose set and poses it carries."""
-    learned = preset.get("learned")
+    learned = preset.learned
     if learned is None:
         return visemes.load(viseme_set or "default")
-    base = visemes.load(learned["viseme_set"])
+    base = visemes.load(learned.viseme_set)
     if viseme_set is not None and visemes.load(viseme_set).name != base.name:
-        raise LipSyncError(f"preset {preset.get('name', '')!r} was learned with the {base.name!r} viseme set; "
+        raise LipSyncError(f"preset {preset.name!r} was learned with the {base.name!r} viseme set; "
                            f"it cannot drive {viseme_set!r}")
-    return visemes.with_targets(base, learned["targets"])
+    return visemes.with_targets(base, learned.targets)
 
 
 @dataclass
@@ -123,7 +123,7 @@ class Rendered:
     stats: prosody.ClipStats
 
 
-def render(al: Alignment, tracks: prosody.Tracks, base: dict, changes: list[Change], vset: visemes.VisemeSet,
+def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Change], vset: visemes.VisemeSet,
            *, model: str, fps: float, estimate: arousal_mod.Estimate | None = None, fade: float = DEFAULT_FADE,
            viseme_set: str | None = None) -> Rendered:
     """The line's curves, with the emotion starting as ``base`` and following
@@ -135,10 +135,10 @@ def render(al: Alignment, tracks: prosody.Tracks, base: dict, changes: list[Chan
     if starting:
         base = starting[-1].preset
     later = sorted((c for c in changes if c.time > 0), key=lambda c: c.time)
-    plist, keys = [base], [json.dumps(base, sort_keys=True)]
+    plist, keys = [base], [base.key()]
     index = []
     for c in later:
-        key = json.dumps(c.preset, sort_keys=True)
+        key = c.preset.key()
         if key not in keys:
             plist.append(c.preset)
             keys.append(key)
@@ -148,11 +148,10 @@ def render(al: Alignment, tracks: prosody.Tracks, base: dict, changes: list[Chan
     results = []
     for p in plist:
         if changes and viseme_set_for(p, viseme_set).name != vset.name:
-            raise LipSyncError(f"preset {p.get('name', '')!r} uses the {viseme_set_for(p, viseme_set).name!r} "
+            raise LipSyncError(f"preset {p.name!r} uses the {viseme_set_for(p, viseme_set).name!r} "
                                f"viseme set, the line's others {vset.name!r}: they cannot be mixed in one line")
-        wp = p["weights"]
-        stats, pitch, inten = prosody.for_preset(tracks, spans, wp)
-        follow = estimate.at(centres) if estimate is not None and wp.get("follow_voice", 0.0) > 0 else None
+        stats, pitch, inten = prosody.for_preset(tracks, spans, p.weights)
+        follow = estimate.at(centres) if estimate is not None and p.weights.follow_voice > 0 else None
         w, times, out = curves(al, pitch, inten, stats, vset, p, model, fps, arousal=follow)
         results.append(Rendered(pitch, inten, w, times, out, stats))
     first = results[0]

@@ -6,7 +6,7 @@ packaging and registration errors only show up that way.  Set
 ``EMOTIVE_LIPSYNC_ZIP`` to test an already built zip.
 
 The same tests run on every Blender the extension supports (``./test.sh``
-runs 4.2, 4.5, 5.0 and 5.2).  Two things here depend on the Blender:
+runs 4.2, 4.5, 5.0, 5.2 and 5.3).  Two things here depend on the Blender:
 
 * A test fails when the extension's own code used an API Blender has
   deprecated (a ``DeprecationWarning`` from a file of the installed

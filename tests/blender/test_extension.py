@@ -423,7 +423,7 @@ def test_user_preset_saved_from_the_panel_drives_generation(scene):
     assert bpy.ops.emotive_lipsync.preset_add(name="mumbly") == {"FINISHED"}
     preset_ui = import_module(MODULE + ".blender.preset_ui")
     path = os.path.join(preset_ui.user_dir(), "mumbly.json")
-    assert _engine("presets").load(path)["gain"] == 0.5
+    assert _engine("presets").load(path).gain == 0.5
     add_strip(scene, "line", BOB, frame=1)
     assert _generate(mesh="Ada", emotion="mumbly") == {"FINISHED"}
     soft = fcurve_values(bpy.data.objects["Ada"], "AHH")[1].max()

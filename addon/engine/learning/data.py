@@ -18,6 +18,7 @@ from ..errors import LipSyncError
 from ..framerate import frame_times
 from ..importers import read_alignment
 from ..language import CLASSES, Lexicon, read_text_file
+from ..presets import Preset, as_preset
 from ..render import phoneme_weights, rest_target
 from .capture import read_capture_csv, read_track_csv
 
@@ -74,13 +75,14 @@ class Prepared:
         return y
 
 
-def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[str]) -> Prepared:
+def prepare(clip: TrainingClip, vset, preset: Preset | dict, fps: float, channels: list[str]) -> Prepared:
+    preset = as_preset(preset)
     snd, al = clip.audio, clip.alignment
     tracks = prosody.analyse(snd)
-    stats, pitch, inten = prosody.for_preset(tracks, [(p.start, p.end) for p in al.phones], preset["weights"])
+    stats, pitch, inten = prosody.for_preset(tracks, [(p.start, p.end) for p in al.phones], preset.weights)
     w = phoneme_weights(al, pitch, inten, stats, vset, preset)
     spans = [(p.phone, p.start, p.end) for p in al.phones]
-    events = coarticulation.build_events(spans, w, vset, preset["rules"]["diphthong_split"])
+    events = coarticulation.build_events(spans, w, vset, preset.rules.diphthong_split)
     rest_i, rest_w = rest_target(vset, preset)
     duration = max(al.duration, snd.duration)
     segs = coarticulation.segments_with_silence(events, duration, rest_i, rest_w)
@@ -100,7 +102,7 @@ def prepare(clip: TrainingClip, vset, preset: dict, fps: float, channels: list[s
             targets[i, s.viseme] = s.weight
     rest = pauses.rest_for(times, [(p.start, p.end) for p in al.phones], duration)
     return Prepared(clip.name, times, y, np.array([s.centre for s in segs]),
-                    preset["dominance"]["plateau"] * np.array([(s.end - s.start) / 2 for s in segs]),
+                    preset.dominance.plateau * np.array([(s.end - s.start) / 2 for s in segs]),
                     np.array([CLASSES.index(s.cls) for s in segs]), targets, al, pitch, inten, stats,
                     np.asarray(clip.times, float), raw_y, closure, coarticulation.closure_steps(times, events), rest,
                     coarticulation.closure_caps(times, events), duration)

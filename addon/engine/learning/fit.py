@@ -372,7 +372,7 @@ def make_preset(setup: Setup, f: Fit, name: str, n_clips: int) -> dict:
     return presets.validate(out, name)
 
 
-def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_set: str = "arkit",
+def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "neutral", viseme_set: str = "arkit",
           name: str = "learned", holdout: float = 0.2, variance: float = 0.99, fps: float = 30.0,
           max_iter: int = 60, patience: int = 5, seed: int = 0, ridge: float = 1e-3,
           heldout: list[int] | None = None, cross_validate: bool | None = None, max_folds: int = MAX_FOLDS,
@@ -391,7 +391,10 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_
             progress(step, frac)
 
     t_start = time.perf_counter()
-    base = presets.resolve(dict(emotion), "preset") if isinstance(emotion, dict) else presets.load(emotion)
+    if isinstance(emotion, presets.Preset):
+        base = emotion.to_dict()
+    else:
+        base = presets.resolve(dict(emotion), "preset") if isinstance(emotion, dict) else presets.read(emotion)
     if base.get("learned"):
         raise LipSyncError("start from a built-in or hand-made preset, not a learned one")
     vset = visemes.load(viseme_set)

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import coarticulation, mapping
 from ..language import CLASSES
+from ..presets import Preset, as_preset
 from ..render import curves
 from .data import Prepared
 
@@ -122,9 +123,10 @@ def solve_poses(blends, zs, ridge, prior):
     return np.linalg.solve(CtC + lam * np.eye(n), CtZ + lam * prior)
 
 
-def params_matrix(preset: dict) -> np.ndarray:
-    cl = preset["dominance"]["classes"]
-    return np.array([[cl[c][p] for p in PARAMS] for c in CLASSES], float)
+def params_matrix(preset: Preset | dict) -> np.ndarray:
+    """(classes, parameters): each phone class's dominance parameters."""
+    cl = as_preset(preset).dominance.classes
+    return np.array([[getattr(cl[c], p) for p in PARAMS] for c in CLASSES], float)
 
 
 def viseme_curves(clip: Prepared, preset: dict, vset, fps: float) -> np.ndarray:
@@ -135,7 +137,7 @@ def viseme_curves(clip: Prepared, preset: dict, vset, fps: float) -> np.ndarray:
         al.duration = clip.duration
     elif len(clip.times):
         al.duration = float(clip.times[-1])
-    _w, _times, out = curves(al, clip.pitch, clip.intensity, clip.stats, vset, preset, "dominance", fps)
+    _w, _times, out = curves(al, clip.pitch, clip.intensity, clip.stats, vset, as_preset(preset), "dominance", fps)
     res = np.zeros((len(clip.times), out.shape[1]))
     n = min(len(out), len(clip.times))
     res[:n] = out[:n]
