@@ -7,10 +7,10 @@
 #   ./setup.sh --no-run      environment only
 #   ./setup.sh --test-envs   environment and the other Blenders the extension is
 #                            tested on (./test.sh does this): .venv-bpy42/ (4.2 LTS),
-#                            .venv-bpy45/ (4.5 LTS), Python 3.11; .venv-bpy52/ (5.2 LTS),
-#                            Python 3.13
+#                            .venv-bpy45/ (4.5 LTS), Python 3.11; .venv-bpy52/ (5.2 LTS)
+#                            and .venv-bpy53/ (5.3), Python 3.13
 # .venv/ holds Blender 5.0 (bpy from PyPI) and needs Python 3.11, as do 4.2 and
-# 4.5; 5.2 needs Python 3.13.  Each is looked for as $PYTHON311/$PYTHON313,
+# 4.5; 5.2 and 5.3 need Python 3.13.  Each is looked for as $PYTHON311/$PYTHON313,
 # python3.11/python3.13 on the PATH, then pyenv's versions ($PYENV_ROOT, or
 # ~/.pyenv); python3 is used for 3.11 if it is 3.11.
 set -euo pipefail
@@ -55,10 +55,14 @@ venv .venv "${PY:-}" requirements.txt
 if [ "${1:-}" = "--test-envs" ]; then
   venv .venv-bpy42 "$(.venv/bin/python -c 'import sys; print(sys._base_executable)')" requirements-bpy42.txt
   venv .venv-bpy45 "$(.venv/bin/python -c 'import sys; print(sys._base_executable)')" requirements-bpy45.txt
-  if [ -x .venv-bpy52/bin/python ] || PY313=$(find_python 3.13 PYTHON313); then
-    venv .venv-bpy52 "${PY313:-}" requirements-bpy52.txt
+  if PY313=$(find_python 3.13 PYTHON313); then
+    venv .venv-bpy52 "$PY313" requirements-bpy52.txt
+    venv .venv-bpy53 "$PY313" requirements-bpy53.txt
+  elif [ -x .venv-bpy52/bin/python ] && [ -x .venv-bpy53/bin/python ]; then
+    venv .venv-bpy52 "" requirements-bpy52.txt
+    venv .venv-bpy53 "" requirements-bpy53.txt
   else
-    echo "setup: no Python 3.13 found, so Blender 5.2 cannot be tested: install it (pyenv install 3.13," \
+    echo "setup: no Python 3.13 found, so Blender 5.2 and 5.3 cannot be tested: install it (pyenv install 3.13," \
          "or your system's python3.13 package), or set PYTHON313=/path/to/python3.13" >&2
   fi
   exit 0

@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
 # Run every test: the engine (plain Python) once, then the Blender extension,
 # built and installed from its zip, headless on each Blender it supports:
-# 4.2 LTS, 4.5 LTS, 5.0 (Python 3.11) and 5.2 LTS (Python 3.13), each the bpy
+# 4.2 LTS, 4.5 LTS, 5.0 (Python 3.11), 5.2 LTS and 5.3 (Python 3.13), each the bpy
 # module from PyPI in its own environment.  The environments are built first
 # if needed (./setup.sh --test-envs).  Each Blender's tests run even when an
 # earlier one failed; the summary at the end gives the counts per Blender.
 #   ./test.sh                 everything
 #   ./test.sh --engine-only   the engine's tests only (no Blender)
-# Without a Python 3.13 the 5.2 tests cannot run: that is reported, and is a
-# failure under CI (CI=true).
+# Without a Python 3.13 the 5.2 and 5.3 tests cannot run: that is reported,
+# and is a failure under CI (CI=true).
 set -euo pipefail
 cd "$(dirname "$0")"
 if [ "${1:-}" = "--engine-only" ]; then
@@ -61,12 +61,14 @@ run "Engine (Python $(.venv/bin/python -c 'import platform; print(platform.pytho
 blender .venv-bpy42
 blender .venv-bpy45
 blender .venv
-if [ -x .venv-bpy52/bin/python ]; then
-  blender .venv-bpy52
-else
-  summary+=("!!! Blender 5.2 LTS: NOT RUN, no Python 3.13 on this machine (see ./setup.sh's message above)")
-  if [ "${CI:-}" = "true" ]; then status=1; fi
-fi
+for v in 52 53; do
+  if [ -x .venv-bpy$v/bin/python ]; then
+    blender .venv-bpy$v
+  else
+    summary+=("!!! Blender ${v:0:1}.${v:1}: NOT RUN, no Python 3.13 on this machine (see ./setup.sh's message above)")
+    if [ "${CI:-}" = "true" ]; then status=1; fi
+  fi
+done
 
 echo
 echo "=== Summary ==="
