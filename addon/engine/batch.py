@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 from .emotion_track import DEFAULT_FADE
-from .errors import LipSyncError
+from .errors import AudioError, LipSyncError
 
 #: Manifest columns this module reads; Blender's command also reads the last three.
 COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", "fps", "output",
@@ -273,6 +273,17 @@ def one_line_error(exc: BaseException) -> str:
     return " ".join(msg.split()) or type(exc).__name__
 
 
+def check_audio_path(path: str | os.PathLike) -> None:
+    """Raise :class:`AudioError` when ``path`` is missing or a folder: said
+    first, before the want of a transcript, which the audio's absence may
+    cause (the transcript beside it is looked for by the audio's name)."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise AudioError(f"audio file not found: {path}")
+    if os.path.isdir(path):
+        raise AudioError(f"audio path is a folder, not a file: {path}")
+
+
 def line_text(line: Line) -> str | None:
     """The words of a line (None when only an alignment is given)."""
     if line.text is not None:
@@ -299,6 +310,8 @@ def analyze_line(line: Line, defaults: Defaults):
     warm(defaults.dictionary)
     if line.problem:
         raise LipSyncError(line.problem)
+    if line.audio:
+        check_audio_path(line.audio)
     text = line_text(line)
     return analyze(line.audio, text, alignment=line.alignment,
                    viseme_set=line.viseme_set or defaults.viseme_set,

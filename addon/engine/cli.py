@@ -109,9 +109,11 @@ def main(argv: list[str] | None = None) -> int:
         print("error: give --json OUT and/or --csv OUT", file=sys.stderr)
         return 2
     try:
+        from .batch import check_audio_path
         from .pipeline import check_output_path
 
         _check_options(args)
+        check_audio_path(args.audio)
 
         inputs = (args.audio, args.transcript, args.alignment)
         for flag, out in (("--json", args.json), ("--csv", args.csv)):
