@@ -58,6 +58,30 @@ def _replace_with_older(path: Path, content: str | bytes) -> None:
 
 
 # ---------------------------------------------------------------------------
+# --out DIR keeps every output under DIR
+
+def test_out_dir_keeps_outputs_of_audio_outside_the_manifest_folder_under_it(lines_dir, tmp_path):
+    sub = lines_dir / "sub"
+    sub.mkdir()
+    (sub / "m.csv").write_text("audio,transcript\n../bob_map.wav,../bob_map.txt\n"
+                               "../sub/../fast_bilabials.wav,../fast_bilabials.txt\n")
+    out = tmp_path / "out" / "deep"
+    r = _cli("batch", sub / "m.csv", "--out", out, "--workers", "1")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["bob_map.json", "fast_bilabials.json"]
+    written = [p for p in tmp_path.rglob("*.json")]
+    assert all(out in p.parents for p in written), written
+
+    lines = batch.read_manifest(sub / "m.csv", out_dir=str(out))
+    assert [ln.outputs["json"] for ln in lines] == [str(out / "bob_map.json"), str(out / "fast_bilabials.json")]
+    # Audio below the manifest's folder keeps its folders; two lines that land on one name are refused.
+    (lines_dir / "m.csv").write_text("audio\nsub/x.wav\nsub/../sub/y.wav\n../lines/sub/x.wav\n")
+    a, b, c = batch.read_manifest(lines_dir / "m.csv", out_dir=str(out))
+    assert a.outputs["json"] == str(out / "sub" / "x.json") and b.outputs["json"] == str(out / "sub" / "y.json")
+    assert "also written by line 2" in c.problem
+
+
+# ---------------------------------------------------------------------------
 # a missing audio file
 
 def test_missing_audio_without_a_transcript_says_the_audio_is_missing(lines_dir, tmp_path):

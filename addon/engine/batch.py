@@ -158,15 +158,17 @@ def output_paths(line: Line, base: Path, formats: Iterable[str], out_dir: str | 
                  output: str | None) -> dict[str, str]:
     """Where a line's results go: ``output`` (its extension replaced per
     format), else under ``out_dir`` mirroring the audio's place below the
-    manifest's folder, else beside the audio."""
+    manifest's folder (audio elsewhere, ``../x.wav`` included, goes straight
+    into ``out_dir`` by its name), else beside the audio."""
     if output:
         stem = Path(_resolve(base, output))
         stem = stem.with_suffix("") if stem.suffix.lower() in (".json", ".csv") else stem
     else:
         audio = Path(line.audio)
         if out_dir:
+            # Compared once '..' is folded in, so that no output lands above out_dir.
             try:
-                rel = audio.with_suffix("").relative_to(base)
+                rel = Path(os.path.normpath(audio.with_suffix(""))).relative_to(os.path.normpath(base))
             except ValueError:
                 rel = Path(audio.stem)
             stem = Path(out_dir) / rel
