@@ -173,6 +173,7 @@ def test_batch_emotion_fade_option_reaches_every_line(tmp_path, fixtures):
     want = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.", emotion_fade=0.05)
     start, end = doc["emotions"][1]["fade"]
     assert end - start == pytest.approx(0.05)
+    assert doc.pop("produced_by")["settings"]["emotion_fade"] == 0.05
     assert doc == json.loads(json.dumps(want.to_dict(), separators=(",", ":")))
     default = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.")
     assert not np.allclose(default.curves, want.curves)     # the option changed the animation
