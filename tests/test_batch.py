@@ -8,7 +8,6 @@ import os
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -102,6 +101,7 @@ def test_batch_writes_what_analyze_writes_and_reports_failures(lines_dir, tmp_pa
     # Same content as the engine's own result for that line.
     ref = analyze(lines_dir / "bob_map.wav", (lines_dir / "bob_map.txt").read_text(), emotion="angry")
     got = json.loads((lines_dir / "bob_map.json").read_text())
+    assert got.pop("produced_by")["row"] == {"audio": "bob_map.wav", "transcript": "bob_map.txt", "emotion": "angry"}
     assert got == json.loads(json.dumps(ref.to_dict(), separators=(",", ":")))
     ref.write_csv(tmp_path / "ref.csv")
     assert (lines_dir / "bob_map.csv").read_text() == (tmp_path / "ref.csv").read_text()
@@ -117,9 +117,8 @@ def test_rerun_skips_up_to_date_lines_redoes_changed_ones_and_force(lines_dir):
     again = batch.run(lines_dir / "m.csv", workers=1, progress=False)
     assert again.count("skipped") == 2 and again.count("ok") == 0
     assert out.stat().st_mtime_ns == stamp
-    # A newer transcript makes its line stale; the other stays skipped.
-    future = time.time() + 5
-    os.utime(lines_dir / "bob_map.txt", (future, future))
+    # An edited transcript makes its line stale; the other stays skipped.
+    (lines_dir / "bob_map.txt").write_text("Bob bought the map.\n")
     third = batch.run(lines_dir / "m.csv", workers=1, progress=False)
     assert [o.status for o in third.outcomes] == ["ok", "skipped"]
     assert batch.run(lines_dir / "m.csv", workers=1, force=True, progress=False).count("ok") == 2

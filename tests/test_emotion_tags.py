@@ -202,6 +202,7 @@ def test_batch_emotion_fade_option_reaches_every_line(tmp_path, fixtures):
     want = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.", emotion_fade=0.05)
     start, end = doc["emotions"][1]["fade"]
     assert end - start == pytest.approx(0.05)
+    assert doc.pop("produced_by")["settings"]["emotion_fade"] == 0.05
     assert doc == json.loads(json.dumps(want.to_dict(), separators=(",", ":")))
     default = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.")
     assert not np.allclose(default.curves, want.curves)     # the option changed the animation
@@ -219,3 +220,26 @@ def test_cli_option_checks_are_one_line_errors(command, option, value, says, tmp
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and says in err and err.startswith("error:")
     assert not (tmp_path / "o.json").exists() and not (tmp_path / "out").exists()
+
+
+def test_cli_and_batch_read_a_tags_preset_file_from_the_transcripts_folder(tmp_path, monkeypatch, fixtures):
+    script = tmp_path / "script"
+    (script / "presets").mkdir(parents=True)
+    (script / "presets" / "grumpy.json").write_text('{"name": "grumpy", "base": "sad"}', encoding="utf-8")
+    (script / "bob.txt").write_text("[presets/grumpy.json] Bob", encoding="utf-8")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    out = tmp_path / "o.json"
+    assert cli.main(["analyze", str(fixtures / "bob_map.wav"), "--transcript", str(script / "bob.txt"),
+                     "--json", str(out), "--quiet"]) == 0
+    sad = tmp_path / "sad.json"
+    assert cli.main(["analyze", str(fixtures / "bob_map.wav"), "--text", "Bob", "--emotion", "sad",
+                     "--json", str(sad), "--quiet"]) == 0
+    got, want = json.loads(out.read_text()), json.loads(sad.read_text())
+    assert got["emotion"] == "presets/grumpy.json" and got["frames"] == want["frames"]
+    manifest = tmp_path / "lines.csv"
+    manifest.write_text(f"audio,transcript\n{fixtures / 'bob_map.wav'},{script / 'bob.txt'}\n", encoding="utf-8")
+    assert cli.main(["batch", str(manifest), "--out", str(tmp_path / "batch"), "--quiet"]) == 0
+    doc = json.loads((tmp_path / "batch" / "bob_map.json").read_text())
+    assert doc["emotion"] == "presets/grumpy.json" and doc["frames"] == want["frames"]

@@ -12,7 +12,9 @@ The pieces, each usable alone:
 
 * :func:`read_manifest` turns the file into :class:`Line` values (a line
   that cannot be read becomes a :class:`Line` carrying its ``problem``);
-* :func:`up_to_date` says whether a line's outputs are newer than its inputs;
+* :func:`produced_by` records what a line's outputs are made from (kept in
+  the JSON as ``produced_by``, beside a CSV), and :func:`freshness` says
+  whether the outputs there were made from the same, or why not;
 * :func:`warm` loads the models and dictionaries once per process, and
   :func:`analyze_line` lip-syncs one line in that process;
 * :func:`run_local` (a process pool), :func:`run_dask` (a Dask cluster) and
@@ -29,22 +31,31 @@ bundles neither, can use the manifest reader and :func:`run_inline`.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import os
+import re
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 from .emotion_track import DEFAULT_FADE
-from .errors import LipSyncError
+from .errors import AudioError, LipSyncError
 
 #: Manifest columns this module reads; Blender's command also reads the last three.
 COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", "fps", "output",
            "mesh", "strip", "frame")
 FORMATS = ("json", "csv")
+#: The columns that shape a line's outputs, kept in the record of what made them.
+ROW_COLUMNS = COLUMNS[:8]
+#: The layout of that record ("produced_by"); a new layout makes every output stale.
+RECORD_SCHEMA = 1
+#: A CSV output's record is kept beside it, in a file named so (a JSON output holds its own).
+CSV_RECORD_SUFFIX = ".produced_by"
 
 
 @dataclass
@@ -74,14 +85,18 @@ class Line:
     outputs: dict[str, str] = field(default_factory=dict)   # format -> path
     extra: dict[str, str] = field(default_factory=dict)     # mesh, strip, frame (Blender)
     problem: str | None = None          # why the line cannot be run
+    row: dict[str, str] = field(default_factory=dict)       # its ROW_COLUMNS as written in the manifest
+    record: dict | None = None          # what its outputs will be made from (see produced_by)
 
     def label(self) -> str:
         return self.audio or self.extra.get("strip") or self.extra.get("mesh") or "-"
 
-    def inputs(self) -> list[str]:
-        """The files the outputs depend on."""
-        out = [p for p in (self.audio, self.transcript, self.alignment) if p]
-        out += [p for p in (self.emotion, self.viseme_set) if p and p.endswith(".json")]
+    def inputs(self) -> dict[str, str]:
+        """The line's own files, by role: its audio, transcript (the .txt
+        beside the audio when it names no words) and alignment."""
+        out = {k: getattr(self, k) for k in ("audio", "transcript", "alignment") if getattr(self, k)}
+        if self.audio and not (self.transcript or self.text is not None or self.alignment):
+            out["transcript"] = str(Path(self.audio).with_suffix(".txt"))
         return out
 
 
@@ -96,6 +111,8 @@ class Outcome:
     error: str | None = None
     seconds: float = 0.0
     result: object = None               # the pipeline.Result while it is being written
+    record: dict | None = None          # what the result was made from, while it is being written
+    reason: str | None = None           # why a line whose outputs existed was done again
 
 
 # ---------------------------------------------------------------------------
@@ -158,15 +175,17 @@ def output_paths(line: Line, base: Path, formats: Iterable[str], out_dir: str | 
                  output: str | None) -> dict[str, str]:
     """Where a line's results go: ``output`` (its extension replaced per
     format), else under ``out_dir`` mirroring the audio's place below the
-    manifest's folder, else beside the audio."""
+    manifest's folder (audio elsewhere, ``../x.wav`` included, goes straight
+    into ``out_dir`` by its name), else beside the audio."""
     if output:
         stem = Path(_resolve(base, output))
         stem = stem.with_suffix("") if stem.suffix.lower() in (".json", ".csv") else stem
     else:
         audio = Path(line.audio)
         if out_dir:
+            # Compared once '..' is folded in, so that no output lands above out_dir.
             try:
-                rel = audio.with_suffix("").relative_to(base)
+                rel = Path(os.path.normpath(audio.with_suffix(""))).relative_to(os.path.normpath(base))
             except ValueError:
                 rel = Path(audio.stem)
             stem = Path(out_dir) / rel
@@ -187,7 +206,8 @@ def _line(number: int, row: dict, base: Path, formats, out_dir) -> Line:
                 emotion=_named_or_file(base, row.get("emotion")),
                 viseme_set=_named_or_file(base, row.get("viseme_set")),
                 fps=(row.get("fps") or "").strip() or None,
-                extra={k: row[k].strip() for k in ("mesh", "strip", "frame") if row.get(k, "").strip()})
+                extra={k: row[k].strip() for k in ("mesh", "strip", "frame") if row.get(k, "").strip()},
+                row={k: row[k] for k in ROW_COLUMNS if row.get(k, "").strip()})
     given = [k for k in ("transcript", "text", "alignment") if getattr(line, k)]
     if line.audio is None and "strip" not in line.extra:
         line.problem = "no audio file named"
@@ -220,15 +240,216 @@ def read_manifest(path: str | os.PathLike, formats: Iterable[str] = ("json",),
     return lines
 
 
-def up_to_date(line: Line) -> bool:
-    """True when every output exists and is newer than every input file."""
-    if not line.outputs:
-        return False
+# ---------------------------------------------------------------------------
+# what made an output
+
+@lru_cache(maxsize=1)
+def engine_version() -> str:
+    """The extension's version, from ``blender_manifest.toml`` (in the
+    extension's folder, or one above it in a checkout)."""
+    here = Path(__file__).resolve().parent.parent
+    for folder in (here, here.parent):
+        try:
+            text = (folder / "blender_manifest.toml").read_text(encoding="utf-8")
+        except OSError:
+            continue
+        m = re.search(r'(?m)^version\s*=\s*"([^"]+)"', text)
+        if m:
+            return m.group(1)
+    return "unknown"
+
+
+@lru_cache(maxsize=1)
+def _engine_data() -> str:
+    """A hash of the engine's data files (timing, built-in presets and
+    viseme sets, the arousal model ...), which can change between releases."""
+    data = Path(__file__).resolve().parent / "data"
+    h = hashlib.sha256()
+    for p in sorted(data.rglob("*")):
+        if p.is_file():
+            h.update(p.relative_to(data).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def _plain(x):
+    """``x`` as JSON-ready values (a viseme set's arrays, its dataclass)."""
+    if is_dataclass(x):
+        return {f.name: _plain(getattr(x, f.name)) for f in fields(x)}
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if hasattr(x, "tolist"):
+        return x.tolist()
+    return x
+
+
+def _digest(x) -> str:
+    return hashlib.sha256(json.dumps(_plain(x), sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def _file_sha(path: str) -> str:
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+#: An input changed less than this before its record was made is hashed again
+#: (a file can change twice within one tick of a coarse file-system clock).
+_SAME_TICK_NS = 2 * 10**9
+
+
+def _input_identity(path: str, before: dict | None, recorded_ns: int) -> dict:
+    """A file's path, size, time and content hash; the hash is taken from
+    ``before`` (its entry in the last record, made at ``recorded_ns``) when
+    path, size and time are unchanged and the file was older than that record."""
+    st = os.stat(path)
+    ident = {"path": os.path.abspath(path), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+    if (isinstance(before, dict) and all(before.get(k) == v for k, v in ident.items())
+            and isinstance(before.get("sha256"), str) and recorded_ns - st.st_mtime_ns > _SAME_TICK_NS):
+        ident["sha256"] = before["sha256"]
+    else:
+        ident["sha256"] = _file_sha(path)
+    return ident
+
+
+class Digests:
+    """The hashes of presets, viseme sets and other files named by many
+    lines, each taken once (per run)."""
+
+    def __init__(self):
+        self._seen: dict[tuple, str] = {}
+
+    def _once(self, key: tuple, make) -> str:
+        if key not in self._seen:
+            self._seen[key] = make()
+        return self._seen[key]
+
+    def preset(self, name: str, folder: str | None = None) -> str:
+        """The digest of preset ``name`` as a tag in a transcript in ``folder`` reads it."""
+        from . import presets
+
+        return self._once(("preset", folder, name), lambda: _digest(presets.finder(folder)(name)))
+
+    def viseme_set(self, name: str) -> str:
+        from . import visemes
+
+        return self._once(("viseme_set", name), lambda: _digest(visemes.load(name)))
+
+    def file(self, path: str) -> str:
+        return self._once(("file", os.path.abspath(path)), lambda: _file_sha(path))
+
+
+def produced_by(line: Line, defaults: Defaults, before: dict | None = None,
+                digests: Digests | None = None) -> dict:
+    """The record of what a line's outputs are made from, and its
+    ``fingerprint`` (a hash of all that): the engine (version, data files,
+    this record's layout), the manifest row, the command's options the row
+    does not override, the preset, viseme set, emotion-tag presets,
+    dictionary and arousal model used (by content, built-in ones included),
+    and the line's own files (by content; ``before``, the last record,
+    spares hashing a file whose size and time are unchanged).  Raises when
+    something cannot be read; the line's own run then says what."""
+    from .emotion_track import split_tags
+
+    digests = digests or Digests()
+    now = time.time_ns()
+    engine = {"version": engine_version(), "record": RECORD_SCHEMA, "data": _engine_data()}
+    settings = {"emotion": None if line.emotion else defaults.emotion,
+                "viseme_set": None if line.viseme_set else defaults.viseme_set,
+                "fps": None if line.fps else str(defaults.fps),
+                "coarticulation": defaults.coarticulation, "emotion_fade": float(defaults.emotion_fade)}
+    files = {"preset": digests.preset(line.emotion or defaults.emotion),
+             "viseme_set": digests.viseme_set(line.viseme_set or defaults.viseme_set or "default")}
+    text = line_text(line)
+    if text:
+        source = transcript_file(line)
+        folder = os.path.dirname(os.path.abspath(source)) if source else None
+        for tag in split_tags(text, known=lambda n: bool(digests.preset(n, folder)))[1]:
+            files[f"preset {tag.preset}"] = digests.preset(tag.preset, folder)
+    if defaults.dictionary:
+        files["dictionary"] = digests.file(defaults.dictionary)
+    model = os.environ.get("LIPSYNC_AROUSAL_MODEL")
+    if model:
+        files["arousal_model"] = digests.file(model)
+    before = before if isinstance(before, dict) else {}
+    old = before.get("inputs") if isinstance(before.get("inputs"), dict) else {}
+    stamp = before.get("recorded_ns") if isinstance(before.get("recorded_ns"), int) else 0
+    inputs = {role: _input_identity(path, old.get(role), stamp) for role, path in line.inputs().items()}
+    fingerprint = _digest({"engine": engine, "row": line.row, "settings": settings, "files": files,
+                           "inputs": {k: v["sha256"] for k, v in inputs.items()}})
+    return {"fingerprint": fingerprint, "engine": engine, "row": line.row, "settings": settings, "files": files,
+            "inputs": inputs, "recorded_ns": now}
+
+
+_RECORD_HEAD = re.compile(r'\A\s*\{\s*"produced_by"\s*:\s*')
+
+
+def read_record(fmt: str, path: str) -> dict | None:
+    """The record kept with an output (None: none, or unreadable).  A JSON
+    output holds it first, so only the file's head is read."""
     try:
-        newest_in = max((os.path.getmtime(p) for p in line.inputs()), default=0.0)
-        return all(os.path.getmtime(o) >= newest_in for o in line.outputs.values())
-    except OSError:
-        return False
+        if fmt != "json":
+            with open(path + CSV_RECORD_SUFFIX, encoding="utf-8") as fh:
+                rec = json.load(fh)
+            return rec if isinstance(rec, dict) else None
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16).decode("utf-8", "ignore")
+            m = _RECORD_HEAD.match(head)
+            if m:
+                try:
+                    rec = json.JSONDecoder().raw_decode(head, m.end())[0]
+                    return rec if isinstance(rec, dict) else None
+                except ValueError:
+                    pass   # longer than the head: read it all
+            fh.seek(0)
+            doc = json.loads(fh.read().decode("utf-8"))
+        rec = doc.get("produced_by") if isinstance(doc, dict) else None
+        return rec if isinstance(rec, dict) else None
+    except (OSError, ValueError):
+        return None
+
+
+def why_stale(before: dict | None, now: dict) -> str:
+    """What differs between the record an output carries and the current one."""
+    if not before or "fingerprint" not in before:
+        return "no record of what made it"
+    if before.get("engine") != now["engine"]:
+        return "engine changed"
+    old = before.get("inputs") or {}
+    if {k: (v or {}).get("sha256") for k, v in old.items()} != {k: v["sha256"] for k, v in now["inputs"].items()}:
+        return "input file changed"
+    if before.get("row") != now["row"]:
+        return "manifest row changed"
+    if before.get("settings") != now["settings"]:
+        return "settings changed"
+    was, files = before.get("files") or {}, now["files"]
+    for key, label in (("dictionary", "dictionary changed"), ("arousal_model", "arousal model changed")):
+        if was.get(key) != files.get(key):
+            return label
+    return "preset or viseme set changed"
+
+
+def freshness(line: Line, defaults: Defaults, digests: Digests | None = None) -> tuple[bool, str | None]:
+    """(whether every output of ``line`` exists and was made from what
+    would make it now, why not).  Sets ``line.record`` to the current
+    record when it could be made; a line with an output missing is not up
+    to date and has no reason."""
+    if not line.outputs or not all(os.path.isfile(p) for p in line.outputs.values()):
+        return False, None
+    records = [read_record(fmt, path) for fmt, path in line.outputs.items()]
+    try:
+        line.record = produced_by(line, defaults, next((r for r in records if r), None), digests)
+    except Exception:  # the line's own run reports what cannot be read
+        line.record = None
+        return False, None
+    stale = [r for r in records if not r or r.get("fingerprint") != line.record["fingerprint"]]
+    return (False, why_stale(stale[0], line.record)) if stale else (True, None)
+
+
+def up_to_date(line: Line, defaults: Defaults | None = None) -> bool:
+    """True when every output exists and was made from the same files and
+    settings (see :func:`produced_by`)."""
+    return freshness(line, defaults or Defaults())[0]
 
 
 # ---------------------------------------------------------------------------
@@ -276,6 +497,17 @@ def one_line_error(exc: BaseException) -> str:
     return " ".join(msg.split()) or type(exc).__name__
 
 
+def check_audio_path(path: str | os.PathLike) -> None:
+    """Raise :class:`AudioError` when ``path`` is missing or a folder: said
+    first, before the want of a transcript, which the audio's absence may
+    cause (the transcript beside it is looked for by the audio's name)."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise AudioError(f"audio file not found: {path}")
+    if os.path.isdir(path):
+        raise AudioError(f"audio path is a folder, not a file: {path}")
+
+
 def line_text(line: Line) -> str | None:
     """The words of a line (None when only an alignment is given)."""
     if line.text is not None:
@@ -294,6 +526,21 @@ def line_text(line: Line) -> str | None:
                        "(or put a .txt beside the audio)")
 
 
+def transcript_file(line: Line) -> str | None:
+    """The file a line's words are read from (its 'transcript', or the .txt
+    beside its audio), whose folder preset files named in its tags are
+    read from; None for inline text or an alignment alone."""
+    if line.text is not None:
+        return None
+    if line.transcript:
+        return line.transcript
+    if line.audio and not line.alignment:
+        side = Path(line.audio).with_suffix(".txt")
+        if side.is_file():
+            return str(side)
+    return None
+
+
 def analyze_line(line: Line, defaults: Defaults):
     """Lip-sync one line in this process; returns the pipeline's Result."""
     from .alignment import AlignSettings
@@ -302,40 +549,76 @@ def analyze_line(line: Line, defaults: Defaults):
     warm(defaults.dictionary)
     if line.problem:
         raise LipSyncError(line.problem)
+    if line.audio:
+        check_audio_path(line.audio)
     text = line_text(line)
     return analyze(line.audio, text, alignment=line.alignment,
                    viseme_set=line.viseme_set or defaults.viseme_set,
                    emotion=line.emotion or defaults.emotion, coarticulation_model=defaults.coarticulation,
                    fps=line.fps or defaults.fps, dictionary=defaults.dictionary,
-                   emotion_fade=defaults.emotion_fade,
+                   emotion_fade=defaults.emotion_fade, transcript_path=transcript_file(line),
                    settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
 
 
 def work(line: Line, defaults: Defaults) -> Outcome:
     """:func:`analyze_line` that never raises: the Outcome carries the
-    Result, or the reason it failed."""
+    Result and the record of what it was made from (taken before the work,
+    unless the line brings it), or the reason it failed."""
     t0 = time.perf_counter()
+    record = line.record
+    if record is None and line.outputs:
+        try:
+            record = produced_by(line, defaults)
+        except Exception:  # whatever cannot be read fails the line below, with its own message
+            record = None
     try:
         result = analyze_line(line, defaults)
     except Exception as exc:  # one bad line must not stop the others
         return Outcome(line.number, line.label(), "failed", error=one_line_error(exc),
                        seconds=time.perf_counter() - t0)
-    return Outcome(line.number, line.label(), "ok", seconds=time.perf_counter() - t0, result=result)
+    return Outcome(line.number, line.label(), "ok", seconds=time.perf_counter() - t0, result=result,
+                   record=record)
 
 
-def write_outputs(line: Line, result) -> list[str]:
+def _replace(path: str, write: Callable[[str], None]) -> None:
+    """``write`` to a temporary file, then put it in place of ``path``."""
+    tmp = f"{path}.part{os.getpid()}"
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _write_text(text: str) -> Callable[[str], None]:
+    def write(path: str) -> None:
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+    return write
+
+
+def write_outputs(line: Line, result, record: dict | None = None) -> list[str]:
     """Write a line's JSON/CSV through a temporary file each, so an output
-    that exists is always complete."""
+    that exists is always complete, with ``record`` (what it was made from):
+    first in the JSON as ``produced_by``, beside a CSV in a file named with
+    :data:`CSV_RECORD_SUFFIX` (written after the CSV, or removed when there
+    is no record, so that a record never describes a CSV it did not make)."""
     written = []
     for fmt, path in line.outputs.items():
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-        tmp = f"{path}.part{os.getpid()}"
-        try:
-            (result.write_json if fmt == "json" else result.write_csv)(tmp)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        if fmt == "json":
+            doc = result.to_dict()
+            if record is not None:
+                doc = {"produced_by": record, **{k: v for k, v in doc.items() if k != "produced_by"}}
+            _replace(path, _write_text(json.dumps(doc, separators=(",", ":"))))
+        else:
+            side = path + CSV_RECORD_SUFFIX
+            if record is None and os.path.exists(side):
+                os.unlink(side)
+            _replace(path, result.write_csv)
+            if record is not None:
+                _replace(side, _write_text(json.dumps(record, indent=1) + "\n"))
         written.append(path)
     return written
 
@@ -468,7 +751,21 @@ class Report:
         done = self.count("ok")
         rate = f", {done / self.seconds:.1f} lines/s" if done and self.seconds > 0 else ""
         return (f"{len(self.outcomes)} lines: {done} done, {self.count('skipped')} up to date, "
-                f"{self.count('failed')} failed, in {self.seconds:.1f} s{rate}")
+                f"{self.count('failed')} failed, in {self.seconds:.1f} s{rate}{self.redone()}")
+
+    def redone(self) -> str:
+        """Why lines whose outputs existed were done again: '; 3 redone:
+        settings changed' (empty when none were)."""
+        why: dict[str, int] = {}
+        for o in self.outcomes:
+            if o.status == "ok" and o.reason:
+                why[o.reason] = why.get(o.reason, 0) + 1
+        if not why:
+            return ""
+        n = sum(why.values())
+        if len(why) == 1:
+            return f"; {n} redone: {next(iter(why))}"
+        return f"; {n} redone: " + ", ".join(f"{k} {r}" for r, k in sorted(why.items(), key=lambda x: -x[1]))
 
     def failure_lines(self) -> list[str]:
         return [f"line {o.number} ({o.label}): {o.error}" for o in self.failures()]
@@ -476,8 +773,7 @@ class Report:
     def to_dict(self) -> dict:
         lines = []
         for o in sorted(self.outcomes, key=lambda o: o.number):
-            d = asdict(o) if o.result is None else {k: v for k, v in asdict(o).items() if k != "result"}
-            d.pop("result", None)
+            d = {f.name: getattr(o, f.name) for f in fields(o) if f.name not in ("result", "record")}
             d["line"] = d.pop("number")
             d["file"] = d.pop("label")
             d["seconds"] = round(d["seconds"], 4)
@@ -517,11 +813,13 @@ def run(manifest: str | os.PathLike, defaults: Defaults | None = None, *, format
     t0 = time.perf_counter()
     lines = read_manifest(manifest, formats, out_dir)
     report = Report(str(manifest))
-    todo = []
+    todo, reasons, digests = [], {}, Digests()
     for ln in lines:
         if ln.problem:
             report.outcomes.append(Outcome(ln.number, ln.label(), "failed", error=ln.problem))
-        elif not force and up_to_date(ln):
+            continue
+        fresh, reasons[ln.number] = (False, None) if force else freshness(ln, defaults, digests)
+        if fresh:
             report.outcomes.append(Outcome(ln.number, ln.label(), "skipped", outputs=list(ln.outputs.values())))
         else:
             todo.append(ln)
@@ -542,10 +840,11 @@ def run(manifest: str | os.PathLike, defaults: Defaults | None = None, *, format
         for out in stream:
             if out.status == "ok":
                 try:
-                    out.outputs = write_outputs(by_number[out.number], out.result)
+                    out.outputs = write_outputs(by_number[out.number], out.result, out.record)
                 except OSError as exc:
                     out.status, out.error = "failed", f"cannot write the output: {one_line_error(exc)}"
-            out.result = None
+            out.result = out.record = None
+            out.reason = reasons.get(out.number)
             report.outcomes.append(out)
             if bar is not None:
                 bar.update(1)

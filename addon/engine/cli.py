@@ -110,9 +110,11 @@ def main(argv: list[str] | None = None) -> int:
         print("error: give --json OUT and/or --csv OUT", file=sys.stderr)
         return 2
     try:
+        from .batch import check_audio_path
         from .output import check_output_path
 
         _check_options(args)
+        check_audio_path(args.audio)
 
         inputs = (args.audio, args.transcript, args.alignment)
         for flag, out in (("--json", args.json), ("--csv", args.csv)):
@@ -136,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         result = analyze(args.audio, text, alignment=args.alignment, viseme_set=args.viseme_set,
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
                          dictionary=args.dictionary, settings=AlignSettings(workers=args.workers),
-                         emotion_fade=args.emotion_fade)
+                         emotion_fade=args.emotion_fade, transcript_path=args.transcript)
         result.notes[:0] = warnings
         for w in result.warnings:
             print(f"warning: {w}", file=sys.stderr)
@@ -198,15 +200,16 @@ def _batch_parser(sub) -> None:
                        description="Lip-sync every line of a manifest: a CSV file with a header or a JSON-lines "
                                    "file whose lines name audio, and transcript (file), text (inline) or "
                                    "alignment (file); optionally emotion, viseme_set, fps and output. Relative "
-                                   "paths are read from the manifest's folder. Lines whose outputs are newer "
-                                   "than their inputs are skipped.")
+                                   "paths are read from the manifest's folder. A line is skipped when its "
+                                   "outputs record that they were made from the same files, manifest row, "
+                                   "options and engine (see --force).")
     b.add_argument("manifest", help="the manifest: .csv with a header, or JSON lines")
     b.add_argument("--out", metavar="DIR", help="write outputs under DIR (default: beside each audio file)")
     b.add_argument("--json", action="store_true", help="write JSON results (the default when no format is given)")
     b.add_argument("--csv", action="store_true", help="write CSV frame tables")
     b.add_argument("--workers", type=int, default=0, help="worker processes (default: one per core)")
     b.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786")
-    b.add_argument("--force", action="store_true", help="redo lines whose outputs are up to date")
+    b.add_argument("--force", action="store_true", help="redo every line, up to date or not")
     b.add_argument("--report", metavar="FILE", help="write a JSON report of every line")
     _style_options(b, per_line=True)
     b.add_argument("--quiet", action="store_true", help="print nothing but failures")
