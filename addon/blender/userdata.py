@@ -143,23 +143,22 @@ def _source(name: str, where: str, blend_folder: str) -> str:
     if not _looks_like_path(name):
         yours = _names_in(where)
         mine = f"yours: {', '.join(yours)}" if yours else "you have saved none"
-        raise LipSyncError(f"{_short(name)!r} is not a preset: built-in presets: {', '.join(presets.builtin_names())}; "
-                           f"{mine}; or give a .json file")
+        raise LipSyncError(f"{_short(name)!r} is not a preset: built-in presets: "
+                           f"{', '.join(presets.builtin_names())}; {mine}; or give a .json file")
     if name.startswith("//"):
         if not blend_folder:
-            raise LipSyncError(f"the preset file {_short(name)!r} is relative to the .blend file (//), which has "
-                               "not been saved yet: save it first, or give the file's full path")
-        path = os.path.join(blend_folder, name[2:])
-    else:
-        path = name
-    path = os.path.abspath(path)
+            raise LipSyncError(f"the preset file {name!r} is relative to the .blend file (//), which has not been "
+                               "saved yet: save it first, or give the file's full path")
+        name = os.path.join(blend_folder, name[2:])
     try:
-        if os.path.isdir(path):
-            raise LipSyncError(f"{_short(path)} is a folder, not a preset file: give a .json file")
-        if not os.path.isfile(path):
-            raise LipSyncError(f"the preset file {_short(path)} does not exist")
+        path = os.path.abspath(name)
+        folder_given, exists = os.path.isdir(path), os.path.isfile(path)
     except (OSError, ValueError):
         raise LipSyncError(f"{_short(name)!r} is not a usable file path") from None
+    if folder_given:
+        raise LipSyncError(f"{path} is a folder, not a preset file: give a .json file")
+    if not exists:
+        raise LipSyncError(f"the preset file {path} does not exist")
     return path
 
 
@@ -170,11 +169,11 @@ def _load(source: str):
     except LipSyncError:
         raise
     except OSError as exc:
-        raise LipSyncError(f"cannot read the preset file {_short(source)}: {exc.strerror or 'unreadable'}") from None
+        raise LipSyncError(f"cannot read the preset file {source}: {exc.strerror or 'unreadable'}") from None
     except Exception:  # noqa: BLE001 - a value of a kind the preset reader does not expect
         traceback.print_exc()
-        raise LipSyncError(f"{_short(source)} is not a valid preset: one of its fields holds a value of the wrong "
-                           "kind (a list or an object where a name or a number belongs)") from None
+        raise LipSyncError(f"{source} is not a valid preset: one of its fields holds a value of the wrong kind (a "
+                           "list or an object where a name or a number belongs)") from None
 
 
 def source(name: str) -> str:
