@@ -414,6 +414,27 @@ def test_panel_lists_what_is_missing(scene):
     assert panel.problems(bpy.context) == ["Unmapped visemes: FV"]
 
 
+def test_panel_shows_the_face_problem_the_operators_report(scene):
+    """One face lookup: what the panel lists is the operators' own error."""
+    panel = import_module(MODULE + ".blender.panel")
+    st = scene.emotive_lipsync
+    bpy.ops.object.camera_add()                     # the active object, no Face picked
+    st.target = None
+
+    def reported():
+        with pytest.raises(RuntimeError) as err:
+            bpy.ops.emotive_lipsync.clear()
+        said = str(err.value).removeprefix("Error: ").strip()
+        return said[:1].upper() + said[1:]
+
+    said = reported()
+    assert f"'{bpy.context.active_object.name}' is a camera, not a mesh" in said and said in panel.problems(bpy.context)
+    st.target = bpy.data.objects["Ada"]
+    st.target.shape_key_clear()
+    said = reported()
+    assert "'Ada' has no shape keys to animate" in said and said in panel.problems(bpy.context)
+
+
 def test_user_preset_saved_from_the_panel_drives_generation(scene):
     st = scene.emotive_lipsync
     assert bpy.ops.emotive_lipsync.preset_load(name="sad") == {"FINISHED"}

@@ -157,6 +157,20 @@ def test_saving_under_a_bad_name_says_why_and_writes_nothing(scene, name, proble
     assert problem in msg, msg
 
 
+def test_a_broken_preset_of_the_users_is_named_by_its_file(scene):
+    """A saved preset edited by hand into something that is no preset."""
+    for name, body, problem in (("list", "[1, 2]", "must be a JSON object"),
+                                ("cut", '{"gain": 0.5,', "not valid JSON: line 1"),
+                                ("typed", '{"gain": [1, 2]}', "'gain' must be a number"),
+                                ("odd.name", '{"rules": {"apex": "middle"}}', "'rules.apex' must be a number")):
+        path = os.path.join(_folder(), name + ".json")
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(body)
+        msg = _refused(scene, "preset_load", name=name)
+        assert path in msg and problem in msg, msg
+    assert _mod("userdata").preset_names() == ["cut", "list", "odd.name", "typed"]
+
+
 def test_saving_over_a_preset_needs_overwrite_and_broken_panel_numbers_save_nothing(scene):
     st = scene.emotive_lipsync
     assert bpy.ops.emotive_lipsync.preset_load(name="happy") == {"FINISHED"}
