@@ -220,6 +220,14 @@ def test_deleting_touches_only_the_users_own_presets(scene, tmp_path):
         assert problem in _refused(scene, "preset_add", remove_active=True), emotion
     assert victim.is_file() and os.path.isfile(outside)
     os.remove(outside)
+    # One of yours: its file goes, with the training report a learned preset has beside it.
+    for f, body in (("mine.json", {"gain": 0.5}), ("mine.report.json", {"clips": {}})):
+        with open(os.path.join(_folder(), f), "w", encoding="utf-8") as fh:
+            json.dump(body, fh)
+    assert _mod("userdata").preset_names() == ["mine"]
+    st.emotion = "mine"
+    assert bpy.ops.emotive_lipsync.preset_add(remove_active=True) == {"FINISHED"}
+    assert os.listdir(_folder()) == [] and st.emotion == "neutral"
 
 
 def test_learned_poses_on_dotted_shape_keys_survive_the_panel(scene, tmp_path):
