@@ -2,13 +2,23 @@
 lip-sync the shipped line onto both headless, save a .blend, render a
 contact sheet of labelled phones and a video with the sound.
 
-    .venv/bin/python sample_rigs/demo.py [OUT_DIR]      (default: out/)
+    .venv/bin/python sample_rigs/demo.py [OUT_DIR] [--blend-only]     (default: out/)
 
 Writes ``sample.blend`` (press play), ``sample_contact_sheet.png`` (twelve
 frames at chosen phones: lips closed on /p b m/, lower lip to the upper
 teeth on /f v/, rounded and open vowels; the ARKit head on the left of each
 frame, the Ready Player Me one on the right) and ``sample.mp4`` (the whole
-line with its sound, where this Blender can write video).
+line with its sound, where this Blender can write video); with
+``--blend-only``, the .blend alone.
+
+A .blend opens in the Blender that saved it and in later ones, not in
+earlier ones: one saved by 5.0 opens in 4.5 and later (5.0 writes a file
+header 4.2 cannot read), one saved by 4.2 in every Blender the extension
+supports.  ``./setup.sh`` therefore saves ``sample.blend`` again with 4.2
+(``.venv-bpy42/bin/python sample_rigs/demo.py out --blend-only``) when that
+environment exists.  PyPI's ``bpy`` 4.2 has no sound library to add sound
+strips with; the strips are then pasted from a template .blend (see
+``sound_strips.py``) and play as usual in Blender 4.2.
 
 The ARKit head ("Human") is lip-synced through the operator the Generate
 button runs, the Ready Player Me head ("HumanRPM") through the batch command
@@ -232,11 +242,14 @@ def write_video(scene, path, label=None, text=None) -> bool:
 
 
 def main(argv):
+    blend_only = "--blend-only" in argv
+    argv = [a for a in argv if a != "--blend-only"]
     out_dir = os.path.abspath(argv[0] if argv else os.path.join(ROOT, "out"))
     os.makedirs(out_dir, exist_ok=True)
     sys.path.insert(0, ROOT)
     sys.path.insert(0, HERE)
     import addon
+    import sound_strips
     from addon.blender import command, compat, sources
     from addon.engine.alignment import align_audio
 
@@ -251,7 +264,7 @@ def main(argv):
     text.from_string(transcript)
     # Strips named after their meshes: "Generate for All Strips" and the
     # command line find the face by the name.
-    strips = {name: compat.new_sound_strip(scene, f"{name}_hello", SPEECH, k + 1, 1)
+    strips = {name: sound_strips.add(compat, scene, f"{name}_hello", SPEECH, 1, k + 1)
               for k, name in enumerate(heads)}
     for s in strips.values():
         s["lipsync_text"] = text.name
@@ -265,6 +278,9 @@ def main(argv):
         return status
     for obj in heads.values():
         print(f"{obj.name}: {obj.emotive_lipsync.convention}")
+    if blend_only:
+        print(f"wrote {blend} (Blender {bpy.app.version_string})")
+        return 0
 
     alignment = align_audio(sources.decode(SPEECH), transcript)
     tiles = []
@@ -275,7 +291,7 @@ def main(argv):
     label.data.body = ""
     sheet = os.path.join(out_dir, "sample_contact_sheet.png")
     save_sheet(tiles, sheet)
-    print(f"wrote {blend}")
+    print(f"wrote {blend} (Blender {bpy.app.version_string})")
     print(f"wrote {sheet} ({len(tiles)} labelled frames)")
     video = os.path.join(out_dir, "sample.mp4")
     if write_video(scene, video, phone_labels(alignment, 1, scene.render.fps / scene.render.fps_base), label):
@@ -286,5 +302,23 @@ def main(argv):
     return 0
 
 
+def _unregister():
+    """The add-on unregistered, as Blender does on quitting: PyPI's bpy 4.5
+    crashes while Python shuts down if it is still registered."""
+    addon = sys.modules.get("addon")
+    if addon is not None and hasattr(bpy.types.Scene, "emotive_lipsync"):
+        addon.unregister()
+
+
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    try:
+        status = main(sys.argv[1:])
+    finally:
+        _unregister()
+    if not bpy.app.binary_path and bpy.app.version < (4, 4, 0):
+        # PyPI's bpy 4.2 and 4.3 crash while Python shuts down once any
+        # add-on was registered, even unregistered (see tests/blender/conftest.py).
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)

@@ -55,8 +55,25 @@ def test_model_file_checked(tmp_path):
         arousal.load_model(broken)
     with pytest.raises(LipSyncError, match=r"missing\.json.*does not exist"):
         arousal.load_model(tmp_path / "missing.json")
+    with pytest.raises(LipSyncError, match=r"is a folder, not a file"):
+        arousal.load_model(tmp_path)
     model = arousal.load_model()
     assert set(model["features"]) <= set(arousal.FEATURES) and model["features"]
+
+
+def test_model_named_by_the_environment_says_so(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("LIPSYNC_AROUSAL_MODEL", "nope.json")
+    with pytest.raises(LipSyncError) as err:
+        arousal.load_model()
+    assert str(err.value) == "the arousal model file nope.json named by LIPSYNC_AROUSAL_MODEL does not exist"
+    assert cli.main(["arousal", str(tmp_path / "any.wav")]) == 1
+    assert "named by LIPSYNC_AROUSAL_MODEL does not exist" in capsys.readouterr().err
+    model = tmp_path / "mine.json"
+    model.write_text(json.dumps(arousal.load_model(arousal.DATA)), encoding="utf-8")
+    monkeypatch.setenv("LIPSYNC_AROUSAL_MODEL", str(model))
+    assert arousal.load_model() == arousal.load_model(arousal.DATA)
+    monkeypatch.setenv("LIPSYNC_AROUSAL_MODEL", "")
+    assert arousal.load_model() == arousal.load_model(arousal.DATA)
 
 
 def test_arousal_command(tmp_path, capsys, lines):

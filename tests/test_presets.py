@@ -89,3 +89,13 @@ def test_flat_round_trip_and_save(tmp_path):
     p.rules.apex = 7
     with pytest.raises(PresetError, match="rules.apex"):
         presets.save(p, tmp_path / "bad.json")
+
+
+@pytest.mark.parametrize("doc, field", [
+    ({"rules": {"deletion": {"phones": [["HH"]], "threshold": 0.02}}}, "rules.deletion.phones"),
+    ({"description": ["not", "text"]}, "description"),
+])
+def test_a_field_of_the_wrong_kind_is_named_not_a_crash(tmp_path, doc, field):
+    with pytest.raises(PresetError) as err:
+        presets.load(write(tmp_path, {"name": "bad", **doc}))
+    assert err.value.field == field

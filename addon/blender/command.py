@@ -12,7 +12,9 @@ or the .txt beside it.  Strips go to their own mesh by the rule that
 through the engine's batch runner in this process, the models loaded once.
 The exit status is 0 when everything was
 lip-synced, 1 when something was not (each problem is printed), 2 for a
-usage error.
+usage error: an unknown option, or options that do not go together.
+Presets are named as in the panel (see :mod:`.userdata`): a built-in name,
+one of the user's saved presets, or a .json file.
 """
 
 from __future__ import annotations
@@ -24,12 +26,26 @@ import sys
 
 import bpy
 
-from ..engine import batch, presets, visemes
+from ..engine import batch, visemes
 from ..engine.errors import LipSyncError
 from ..engine.language.text import read_text_file
-from . import compat, run, sources
+from . import compat, run, sources, userdata
 
 COMMAND = "lipsync"
+
+
+class UsageError(LipSyncError):
+    """The command was called with options that do not go together (exit status 2)."""
+
+
+def _tolerance(value: str) -> float:
+    try:
+        tol = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{value!r} is not a number") from None
+    if not tol >= 0:
+        raise argparse.ArgumentTypeError(f"{value} is negative: give 0 (a key on every frame) or more")
+    return tol
 
 
 def parser() -> argparse.ArgumentParser:
@@ -52,7 +68,7 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--emotion", default=None, help="preset name or .json file (default: the scene's panel)")
     ap.add_argument("--viseme-set", help="viseme set of the mesh (name or .json file)")
     ap.add_argument("--coarticulation", choices=("dominance", "rules"))
-    ap.add_argument("--tolerance", type=float, default=None, help="key reduction tolerance (0: every frame)")
+    ap.add_argument("--tolerance", type=_tolerance, default=None, help="key reduction tolerance (0: every frame)")
     ap.add_argument("--dictionary", help="pronunciation dictionary file")
     out = ap.add_mutually_exclusive_group()
     out.add_argument("--save", action="store_true", help="save the .blend in place")
@@ -89,8 +105,6 @@ def _lines(args, scene, mesh) -> list[batch.Line]:
                 _with_problem(ln, "name a 'strip', or an 'audio' file and a 'mesh'")
                 for ln in batch.read_manifest(bpy.path.abspath(args.manifest), formats=())]
     if args.audio:
-        if mesh is None:
-            raise LipSyncError("--audio needs --mesh")
         return [batch.Line(k, audio=path) for k, path in enumerate(args.audio, 1)]
     strips = [sources.strip_by_name(scene, n) for n in args.strip]
     if args.all_strips or not args.strip:
@@ -146,7 +160,7 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
     else:
         text = sources.transcript(audio_path=clip.audio_path)[0]
     if line.emotion:
-        options = dataclasses.replace(options, emotion=presets.load(line.emotion))
+        options = dataclasses.replace(options, emotion=userdata.load_preset(line.emotion))
     return run.generate(scene, obj, clip, text, options)
 
 
@@ -159,15 +173,20 @@ def execute(argv: list[str]) -> int:
     if scene is None:
         print(f"lipsync: no scene named {args.scene!r}", file=sys.stderr)
         return 2
-    st = scene.emotive_lipsync
     problems: list[str] = []
     done: list[run.Summary] = []
     try:
-        preset = presets.load(args.emotion) if args.emotion else st.preset()
-        tol = args.tolerance if args.tolerance is not None else (st.tolerance if st.reduce_keys else 0.0)
-        options = run.Options(preset, args.coarticulation or st.coarticulation, tol,
-                              args.dictionary or (bpy.path.abspath(st.dictionary) if st.dictionary else None),
-                              whole_character=st.whole_character, emotion_fade=st.emotion_fade)
+        given_text = args.text is not None or bool(args.transcript)
+        if given_text and len(args.audio) + len(args.strip) != 1:
+            raise UsageError("--text/--transcript need exactly one --strip or --audio; for several, put a "
+                             ".txt beside each audio file")
+        if args.manifest and (args.audio or args.strip or args.all_strips or given_text):
+            raise UsageError("--manifest names every line itself: leave out --strip, --audio, --all-strips, "
+                             "--text and --transcript")
+        if args.audio and not args.mesh:
+            raise UsageError("--audio needs --mesh: the face mesh to key")
+        fixed = _fixed_text(args)
+        options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)
@@ -175,14 +194,10 @@ def execute(argv: list[str]) -> int:
                 raise LipSyncError(f"no object named {args.mesh!r}")
             if args.viseme_set:
                 _set_viseme_set(mesh, args.viseme_set)
-        fixed = _fixed_text(args)
-        if fixed is not None and len(args.audio) + len(args.strip) != 1:
-            raise LipSyncError("--text/--transcript need exactly one --strip or --audio; for several, put a "
-                               ".txt beside each audio file")
-        if args.manifest and (args.audio or args.strip or args.all_strips or fixed is not None):
-            raise LipSyncError("--manifest names every line itself: leave out --strip, --audio, --all-strips, "
-                               "--text and --transcript")
         jobs = _lines(args, scene, mesh)
+    except UsageError as exc:
+        print(f"lipsync: {exc} (see --help)", file=sys.stderr)
+        return 2
     except LipSyncError as exc:
         print(f"lipsync: {exc}", file=sys.stderr)
         return 1

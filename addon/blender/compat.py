@@ -26,6 +26,7 @@ functions and never tests a version itself.
 from __future__ import annotations
 
 import bpy
+import numpy as np
 
 from ..engine.audio import Audio, from_samples, load
 from ..engine.errors import AudioError
@@ -50,8 +51,7 @@ def decode_file(path: str) -> Audio:
     types (the caller reports those)."""
     if not AUDASPACE:
         return load(path)
-    import aud
-    import numpy as np
+    import aud  # only in a Blender built with Audaspace
 
     snd = aud.Sound(path)
     rate = int(snd.specs[0])

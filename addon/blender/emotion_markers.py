@@ -5,37 +5,20 @@ estimate kept on the sound strip after Generate."""
 
 from __future__ import annotations
 
-import os
-
-from ..engine import presets
 from ..engine.errors import LipSyncError
+from . import userdata
 
 PREFIX = "emotion:"
 #: Custom property on a sound strip: the arousal the last Generate estimated (-1 calm to +1 excited).
 STRIP_AROUSAL = "lipsync_arousal"
 
 
-def lookup():
-    """A preset finder for tags and markers: a name of the user's own
-    presets (the extension's user folder), a built-in name or a .json path.
-    The folder is read now (on the main thread); the finder may run in the
-    engine's thread."""
-    from . import preset_ui
-
-    folder = preset_ui.user_dir(create=False)
-
-    def find(name: str) -> dict:
-        user = os.path.join(folder, name + ".json") if folder and not name.endswith(".json") else ""
-        return presets.load(user if user and os.path.isfile(user) else name)
-
-    return find
-
-
 def changes(scene, first_frame: int, duration: float, fps: float, find=None) -> list[tuple[float, dict]]:
     """(seconds into the line, preset) for each ``emotion:`` marker from
-    ``first_frame`` to the line's end.  A marker naming no preset is an
-    error naming the marker and its frame."""
-    find = find or lookup()
+    ``first_frame`` to the line's end, its preset found by ``find`` (default:
+    :func:`.userdata.finder`).  A marker naming no preset is an error naming
+    the marker and its frame."""
+    find = find or userdata.finder()
     end = first_frame + duration * fps
     out = []
     for m in scene.timeline_markers:

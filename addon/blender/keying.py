@@ -14,7 +14,7 @@ import json
 import bpy
 import numpy as np
 
-from ..engine import key_reduction
+from ..engine import fcurve_eval, key_reduction
 from . import compat
 
 RECORD = "emotive_lipsync"
@@ -102,66 +102,30 @@ def _interpolation(name: str) -> int:
 def drawn(fc, frames: np.ndarray) -> np.ndarray:
     """What ``fc`` evaluates to at ``frames``, computed in bulk.
 
-    Bezier, linear and constant segments are evaluated the way Blender
-    does (``fcurve_eval_keyframes_interpolate``: a handle reaching past its
-    segment shortened, the Bezier's x solved for each frame); an F-curve with
-    modifiers, fewer than two keys, another interpolation (easing, elastic
-    ...) or frames past its keys extrapolated linearly is evaluated by
-    Blender frame by frame."""
+    The keys, handles and interpolations are read in bulk and evaluated by
+    :func:`..engine.fcurve_eval.evaluate`; an F-curve with modifiers, fewer
+    than two keys, another interpolation (easing, elastic ...) or frames
+    past its keys extrapolated linearly is evaluated by Blender frame by
+    frame."""
     kp = fc.keyframe_points
     frames = np.asarray(frames, dtype=np.float64)
     if not len(frames):
         return np.zeros(0)
-    bez, lin, const = (_interpolation(n) for n in ("BEZIER", "LINEAR", "CONSTANT"))
+    codes = {_interpolation(n): code for n, code in (("BEZIER", fcurve_eval.BEZIER), ("LINEAR", fcurve_eval.LINEAR),
+                                                     ("CONSTANT", fcurve_eval.CONSTANT))}
     simple = len(kp) >= 2 and not len(fc.modifiers)
     if simple:
         ipo = _get(kp, "interpolation", 1, np.int32)[:, 0]
         co = _get(kp, "co", 2, np.float64)
         inside = ((frames >= co[0, 0]) & (frames <= co[-1, 0])).all()
-        simple = np.isin(ipo, (bez, lin, const)).all() and (inside or fc.extrapolation == "CONSTANT")
+        simple = np.isin(ipo, list(codes)).all() and (inside or fc.extrapolation == "CONSTANT")
     if not simple:
         return np.fromiter((fc.evaluate(f) for f in frames), float, len(frames))
-    left = _get(kp, "handle_left", 2, np.float64)
-    right = _get(kp, "handle_right", 2, np.float64)
-    seg = np.clip(np.searchsorted(co[:, 0], frames, side="right") - 1, 0, len(co) - 2)
-    v1, v4 = co[seg], co[seg + 1]
-    v2, v3 = right[seg].copy(), left[seg + 1].copy()
-    # BKE_fcurve_correct_bezpart: a handle reaching further in time than the
-    # segment is long is shortened to that length, so that x stays monotonic.
-    width = v4[:, 0] - v1[:, 0]
-    for key, handle in ((v1, v2), (v4, v3)):
-        reach = np.abs(key[:, 0] - handle[:, 0])
-        fac = np.where(reach > width, width / np.where(reach > 0, reach, 1.0), 1.0)[:, None]
-        handle[:] = key - fac * (key - handle)
-
-    def power(p1, p2, p3, p4):  # Bezier control values -> cubic coefficients
-        return p4 - p1 + 3.0 * (p2 - p3), 3.0 * (p1 - 2.0 * p2 + p3), 3.0 * (p2 - p1), p1
-
-    ax, bx, cx, dx = power(v1[:, 0], v2[:, 0], v3[:, 0], v4[:, 0])
-    target = np.clip(frames, v1[:, 0], v4[:, 0])
-    span = np.where(width > 0, width, 1.0)
-    lo, hi = np.zeros(len(frames)), np.ones(len(frames))
-    t = (target - v1[:, 0]) / span
-    # x(t) rises on [0, 1]: Newton's method kept inside a shrinking bracket,
-    # halving it where a step would leave it.
-    for _ in range(60):
-        fx = ((ax * t + bx) * t + cx) * t + dx - target
-        if np.abs(fx).max() < 1e-9:
-            break
-        lo, hi = np.where(fx < 0, t, lo), np.where(fx > 0, t, hi)
-        slope = (3.0 * ax * t + 2.0 * bx) * t + cx
-        step = t - fx / np.where(slope > 0, slope, 1.0)
-        newton = (slope > 0) & (step >= lo) & (step <= hi)
-        t = np.where(fx == 0, t, np.where(newton, step, (lo + hi) / 2))
-    ay, by, cy, dy = power(v1[:, 1], v2[:, 1], v3[:, 1], v4[:, 1])
-    out = ((ay * t + by) * t + cy) * t + dy
-    kind = ipo[seg]
-    out = np.where(kind == lin, v1[:, 1] + (v4[:, 1] - v1[:, 1]) * (target - v1[:, 0]) / span, out)
-    out = np.where(kind == const, v1[:, 1], out)
-    # Constant extrapolation past the end keys.
-    out = np.where(frames <= co[0, 0], co[0, 1], out)
-    out = np.where(frames >= co[-1, 0], co[-1, 1], out)
-    return out
+    kinds = np.empty(len(ipo), dtype=np.int32)
+    for blender, code in codes.items():
+        kinds[ipo == blender] = code
+    return fcurve_eval.evaluate(co, _get(kp, "handle_left", 2, np.float64), _get(kp, "handle_right", 2, np.float64),
+                                kinds, frames)
 
 
 def _hold_to_tolerance(fc, first: int, y: np.ndarray, idx: np.ndarray, tolerance: float,

@@ -18,7 +18,8 @@ from bpy.props import BoolProperty, FloatProperty, StringProperty
 from ..engine import learn, presets
 from ..engine.errors import LipSyncError
 from ..engine.alignment import align_audio
-from . import compat, jobs, run, sources
+from . import compat, jobs, run, sources, userdata
+from .operators import face
 
 
 def _tracks(obj, first: int, n_frames: int, fps: float):
@@ -107,9 +108,7 @@ def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: fl
     scene_name = scene.name
 
     def finish(result: learn.Learned) -> tuple[str, str]:
-        from .preset_ui import user_dir
-
-        path = os.path.join(user_dir(), name + ".json")
+        path = os.path.join(userdata.folder(create=True), name + ".json")
         result.save(path)
         print(learn.summary_text(result.report))
         target = bpy.data.scenes.get(scene_name)
@@ -144,15 +143,13 @@ captured lip sync), and save it as one of your presets"""
                                            "started from on the held-out strips")
 
     def _prepare(self, context):
-        from .operators import _mesh
-
-        obj = _mesh(context, self.mesh)
+        obj = face(context, self.mesh)
         if self.emotion not in presets.builtin_names():
             raise LipSyncError(f"start from a built-in preset: {', '.join(presets.builtin_names())}")
-        name = self.name.strip()
-        if not name or name in presets.builtin_names() or any(c in name for c in '/\\:*?"<>|'):
-            raise LipSyncError(f"{name!r} cannot be the new preset's name")
-        if obj is not None and obj.emotive_lipsync.viseme_set == "FILE":
+        name = userdata.check_name(self.name)
+        if name in presets.builtin_names():
+            raise LipSyncError(f"{name!r} is a built-in preset: choose another name for the learned one")
+        if obj.emotive_lipsync.viseme_set == "FILE":
             raise LipSyncError("learning needs one of the built-in viseme sets on the mesh")
         names = [n.strip() for n in self.strips.split(",") if n.strip()]
         data = collect(context.scene, obj, names)
@@ -160,7 +157,7 @@ captured lip sync), and save it as one of your presets"""
 
     def _job(self, context) -> jobs.Job:
         _obj, vset, data = self._prepare(context)
-        return learn_job(context.scene, vset, data, self.emotion, self.name.strip(), self.holdout,
+        return learn_job(context.scene, vset, data, self.emotion, userdata.check_name(self.name), self.holdout,
                          self.keep_learned)
 
     def execute(self, context):

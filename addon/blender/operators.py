@@ -14,46 +14,30 @@ import bpy
 from bpy.props import FloatProperty, IntProperty, StringProperty
 
 from ..engine import mapping as mapping_mod
-from ..engine import presets, visemes
+from ..engine import visemes
 from ..engine.errors import LipSyncError
 from ..engine.language.text import read_text_file
 from . import compat, jobs, keying, run, sources
 
 
-def _mesh(context, name: str):
+def face(context, name: str = ""):
+    """The face mesh an operator works on: the object named ``name``, else
+    the panel's Face, else the active object; checked to be a mesh with
+    shape keys the add-on may animate (else a :class:`LipSyncError` says
+    what is wrong).  The panel calls it to show that message."""
     if name:
         obj = bpy.data.objects.get(name)
         if obj is None:
             raise LipSyncError(f"no object named {name!r}")
-        return obj
-    st = context.scene.emotive_lipsync
-    return st.target or context.active_object
-
-
-def _face(context, name: str):
-    """:func:`_mesh`, checked to be a mesh with shape keys the add-on may animate."""
-    obj = _mesh(context, name)
+    else:
+        obj = context.scene.emotive_lipsync.target or context.active_object
     run.check_mesh(obj)
     return obj
 
 
 def _options(context, emotion: str, coarticulation: str, tolerance: float) -> run.Options:
-    st = context.scene.emotive_lipsync
-    preset = presets.load(_preset_source(emotion)) if emotion else st.preset()
-    tol = tolerance if tolerance >= 0 else (st.tolerance if st.reduce_keys else 0.0)
-    dictionary = bpy.path.abspath(st.dictionary) if st.dictionary else None
-    return run.Options(preset, coarticulation or st.coarticulation, tol, dictionary,
-                       whole_character=st.whole_character, emotion_fade=st.emotion_fade)
-
-
-def _preset_source(name: str) -> str:
-    """A built-in name, a user preset's name, or a path."""
-    if name in presets.builtin_names() or name.endswith(".json"):
-        return bpy.path.abspath(name) if name.endswith(".json") else name
-    from . import preset_ui
-
-    user = os.path.join(preset_ui.user_dir(create=False), name + ".json")
-    return user if os.path.isfile(user) else name
+    """An operator's Emotion, Coarticulation and Tolerance ("" and -1: the panel's)."""
+    return run.options(context.scene, emotion or None, coarticulation or None, tolerance if tolerance >= 0 else None)
 
 
 class _Progress:
@@ -105,7 +89,7 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
                                "(-1: the panel's start frame)")
         scene = context.scene
         st = scene.emotive_lipsync
-        obj = _face(context, self.mesh)
+        obj = face(context, self.mesh)
         options = _options(context, self.emotion, self.coarticulation, self.tolerance)
         if self.filepath or (not self.strip and st.source == "FILE"):
             path = self.filepath or st.audio_file
@@ -219,7 +203,7 @@ class LIPSYNC_OT_clear(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj = _face(context, self.mesh)
+            obj = face(context, self.mesh)
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         # The character's other meshes keyed with the face (teeth ...) go too.
@@ -249,7 +233,7 @@ Rhubarb ...)"""
 
     def execute(self, context):
         try:
-            obj = _mesh(context, self.mesh)
+            obj = face(context, self.mesh)
             chosen = "AUTO" if self.viseme_set in ("guess", "AUTO") else (self.viseme_set or None)
             if chosen not in (None, "AUTO") and chosen not in visemes.builtin_names():
                 raise LipSyncError(f"{chosen!r} is not a built-in viseme set: {', '.join(visemes.builtin_names())}")
@@ -276,7 +260,7 @@ class LIPSYNC_OT_mapping_add(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj = _face(context, "")
+            obj = face(context, "")
             first = run.mesh_viseme_set(obj).visemes[0]
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
@@ -296,7 +280,7 @@ class LIPSYNC_OT_mapping_remove(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj = _face(context, "")
+            obj = face(context, "")
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         if not len(obj.emotive_lipsync.mapping):

@@ -11,16 +11,20 @@ from ..engine import mapping as mapping_mod
 from ..engine import visemes
 from ..engine.errors import LipSyncError
 from . import compat, keying, run, sources
-from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
-                        LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, LIPSYNC_OT_load_transcript)
 from .emotion_markers import STRIP_AROUSAL
+from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
+                        LIPSYNC_OT_load_transcript, LIPSYNC_OT_mapping_add, LIPSYNC_OT_mapping_remove, face)
 from .preset_ui import LIPSYNC_MT_emotion_presets, LIPSYNC_OT_preset_add
 
 
 def _face(context):
-    st = context.scene.emotive_lipsync
-    obj = st.target or context.active_object
-    return obj if obj is not None and obj.type == "MESH" else None
+    """(the face mesh, None), or (None, why there is none to animate): the
+    operators' :func:`.operators.face`, its error shown instead of raised."""
+    try:
+        return face(context), None
+    except LipSyncError as exc:
+        why = str(exc)
+        return None, why[:1].upper() + why[1:]
 
 
 _detect_cache: dict = {}
@@ -61,11 +65,9 @@ def problems(context) -> list[str]:
     """What stops Generate from working, in words an animator reads."""
     st = context.scene.emotive_lipsync
     out = []
-    obj = _face(context)
+    obj, why = _face(context)
     if obj is None:
-        out.append("No face mesh: pick one or select it")
-    elif obj.data.shape_keys is None or len(obj.data.shape_keys.key_blocks) < 2:
-        out.append(f"{obj.name} has no shape keys")
+        out.append(why)
     else:
         ost = obj.emotive_lipsync
         try:
@@ -163,8 +165,8 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
             col.operator(LIPSYNC_OT_load_transcript.bl_idname, icon="FILE_TEXT", text="Load .txt")
 
         layout.prop(st, "target")
-        face = _face(context)
-        convention = _convention_text(face) if face is not None else ""
+        obj, _why = _face(context)
+        convention = _convention_text(obj) if obj is not None else ""
         if convention:
             row = layout.row()
             row.alignment = "RIGHT"
@@ -181,7 +183,7 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator(LIPSYNC_OT_generate_all.bl_idname, icon="SEQUENCE")
         sub = row.row(align=True)
-        sub.enabled = face is not None and keying.lipsynced(face)
+        sub.enabled = obj is not None and keying.lipsynced(obj)
         sub.operator(LIPSYNC_OT_clear.bl_idname, icon="X", text="Clear")
 
 
@@ -192,9 +194,9 @@ class LIPSYNC_PT_shapes(_Panel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        obj = _face(context)
+        obj, why = _face(context)
         if obj is None:
-            layout.label(text="Pick a face mesh first")
+            layout.label(text=why, icon="ERROR")
             return
         ost = obj.emotive_lipsync
         layout.use_property_split = True

@@ -3,37 +3,21 @@ a menu listing the presets, ``+`` to save the current numbers under a new
 name, ``-`` to delete a preset of your own.
 
 Presets are the engine's JSON files, so a preset saved here is usable from
-the command line (``--emotion path/to/file.json``) and the other way round.
-Your presets live in the extension's user folder
-(``bpy.utils.extension_path_user``), never beside the add-on's code.
+the command line (``--emotion NAME``, or the file's path) and the other way
+round.  Your presets live in the extension's user folder (see
+:mod:`.userdata`), never beside the add-on's code.  Whatever name or path
+an operator is given, a problem is reported in a sentence and nothing is
+changed.
 """
 
 from __future__ import annotations
-
-import os
 
 import bpy
 from bpy.props import BoolProperty, StringProperty
 
 from ..engine import presets
 from ..engine.errors import LipSyncError
-
-_PACKAGE = __package__.rpartition(".")[0]
-
-
-def user_dir(create: bool = True, kind: str = "presets") -> str:
-    """The user's folder of ``kind`` (``presets``, ``conventions``)."""
-    try:
-        return bpy.utils.extension_path_user(_PACKAGE, path=kind, create=create)
-    except ValueError:
-        # Loaded as a plain add-on (not an extension), e.g. from a script.
-        path = bpy.utils.user_resource("SCRIPTS", path=os.path.join(kind, "emotive_lipsync"), create=create)
-        return path
-
-
-def builtin_dir() -> str:
-    return str(presets.DATA)
-
+from . import userdata
 
 class LIPSYNC_MT_emotion_presets(bpy.types.Menu):
     bl_label = "Emotion Presets"
@@ -44,8 +28,7 @@ class LIPSYNC_MT_emotion_presets(bpy.types.Menu):
         layout.label(text="Built-in")
         for name in presets.builtin_names():
             layout.operator(LIPSYNC_OT_preset_load.bl_idname, text=bpy.path.display_name(name)).name = name
-        folder = user_dir(create=False)
-        mine = sorted(f[:-5] for f in os.listdir(folder) if f.endswith(".json")) if os.path.isdir(folder) else []
+        mine = userdata.preset_names()
         if mine:
             layout.separator()
             layout.label(text="Yours")
@@ -63,14 +46,12 @@ class LIPSYNC_OT_preset_load(bpy.types.Operator):
     name: StringProperty(name="Preset", description="Built-in or saved preset name, or a .json path")
 
     def execute(self, context):
-        from .operators import _preset_source
-
         try:
-            preset = presets.load(_preset_source(self.name))
+            preset = userdata.load_preset(self.name)
         except LipSyncError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        context.scene.emotive_lipsync.load_preset(preset, self.name)
+        context.scene.emotive_lipsync.load_preset(preset, self.name.strip())
         return {"FINISHED"}
 
 
@@ -95,22 +76,12 @@ class LIPSYNC_OT_preset_add(bpy.types.Operator):
         st = context.scene.emotive_lipsync
         if self.remove_active:
             return self._remove(st)
-        name = self.name.strip()
-        if not name or any(c in name for c in '/\\:*?"<>|'):
-            self.report({"ERROR"}, f"{name!r} cannot be a preset name (empty, or holds / \\ : * ? \" < > |)")
-            return {"CANCELLED"}
-        if name in presets.builtin_names():
-            self.report({"ERROR"}, f"{name!r} is a built-in preset; choose another name")
-            return {"CANCELLED"}
-        path = os.path.join(user_dir(), name + ".json")
-        if os.path.exists(path) and not self.overwrite:
-            self.report({"ERROR"}, f"a preset named {name!r} exists; tick Overwrite to replace it")
-            return {"CANCELLED"}
         try:
+            name = userdata.check_name(self.name)
             preset = st.preset()
             preset.name = name
             preset.description = f"Saved from the Lip Sync panel (based on {st.emotion})"
-            presets.save(preset, path)
+            path = userdata.save_preset(preset, name, self.overwrite)
         except LipSyncError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -119,14 +90,14 @@ class LIPSYNC_OT_preset_add(bpy.types.Operator):
         return {"FINISHED"}
 
     def _remove(self, st):
-        name = st.emotion
-        path = os.path.join(user_dir(create=False), name + ".json")
-        if name in presets.builtin_names() or not os.path.isfile(path):
-            self.report({"ERROR"}, f"{name!r} is not one of your presets (built-in presets cannot be deleted)")
+        try:
+            userdata.remove_preset(st.emotion)
+        except LipSyncError as exc:
+            self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        os.remove(path)
+        deleted = st.emotion
         st.load_preset(presets.load("neutral"), "neutral")
-        self.report({"INFO"}, f"Deleted emotion preset {name!r}")
+        self.report({"INFO"}, f"Deleted emotion preset {deleted!r}")
         return {"FINISHED"}
 
 

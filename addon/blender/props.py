@@ -4,12 +4,16 @@ each viseme)."""
 
 from __future__ import annotations
 
+import json
+
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
 from ..engine import presets, visemes
 from ..engine.emotion_track import DEFAULT_FADE
+from ..engine.errors import LipSyncError
+from . import userdata
 
 # Stored as numbers: the sets of the first release keep theirs, so older
 # files read back the same choice; later sets are numbered from 10 up.
@@ -133,6 +137,9 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
     emotion: StringProperty(name="Emotion", default="neutral",
                             description="Emotion preset the numbers below were loaded from")
     preset_values: CollectionProperty(type=LIPSYNC_PG_preset_value)
+    learned: StringProperty(name="Learned Poses", options={"HIDDEN"},
+                            description="A learned preset's poses (JSON): kept whole, as shape-key names may hold "
+                                        "dots")
     show_preset_values: BoolProperty(name="Preset Numbers", default=False)
     coarticulation: EnumProperty(name="Coarticulation", default="dominance", items=[
         ("dominance", "Dominance", "Cohen-Massaro dominance functions: smooth blending, tunable per "
@@ -153,16 +160,29 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                                description="Your own pronunciations: lines of WORD PH1 PH2 ... (ARPAbet)")
 
     def preset(self) -> presets.Preset:
-        """The preset as edited in the panel, validated."""
+        """The preset as edited in the panel, validated (the named preset
+        itself when the panel holds no numbers)."""
         if not self.preset_values:
-            return presets.load(self.emotion)
+            return userdata.load_preset(self.emotion)
         flat = {item.path: item.value() for item in self.preset_values}
         flat.setdefault("name", self.emotion)
-        return presets.as_preset(presets.from_flat(flat), f"preset {self.emotion!r} (as edited)")
+        where = f"preset {self.emotion!r} (as edited)"
+        try:
+            doc = presets.from_flat(flat)
+            if self.learned:
+                doc["learned"] = json.loads(self.learned)
+            return presets.as_preset(doc, where)
+        except LipSyncError:
+            raise
+        except Exception:  # noqa: BLE001 - numbers the panel cannot put back together
+            raise LipSyncError(f"{where}: the panel's numbers do not fit the preset's fields; pick the preset "
+                               "from the menu again") from None
 
     def load_preset(self, preset: presets.Preset | dict, name: str) -> None:
+        doc = preset.to_dict() if isinstance(preset, presets.Preset) else preset
         self.preset_values.clear()
-        for path, value in presets.to_flat(preset).items():
+        self.learned = json.dumps(doc["learned"]) if "learned" in doc else ""
+        for path, value in presets.to_flat({k: v for k, v in doc.items() if k != "learned"}).items():
             if path in ("name", "description"):
                 continue
             item = self.preset_values.add()

@@ -1,7 +1,8 @@
 """One lip-sync run: checks, the engine, the keys.
 
 Operators and the command line turn their properties and arguments into the
-plain values these functions take; nothing here reads the UI.
+plain values these functions take (:func:`options` fills in what they leave
+out from the scene's Lip Sync settings); nothing here reads the UI.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
 from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
-from . import compat, emotion_markers, keying
+from . import compat, emotion_markers, keying, userdata
 from .sources import Clip, scene_fps
 
 
@@ -35,6 +36,32 @@ class Options:
     workers: int = 0
     whole_character: bool = True         # also key the character's other meshes with those shape keys
     emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
+
+
+COARTICULATION = ("dominance", "rules")
+
+
+def options(scene, emotion: str | None = None, coarticulation: str | None = None, tolerance: float | None = None,
+            dictionary: str | None = None) -> Options:
+    """How to lip-sync: each value given (an operator's property, a
+    command-line argument), else the scene's Lip Sync settings.
+
+    ``emotion`` names a preset as :func:`.userdata.load_preset` reads it;
+    without it the panel's preset, with its edited numbers, is used.
+    ``tolerance`` 0 keys every frame; without it the panel's (when Reduce
+    Keys is on).  Paths may start with ``//`` (relative to the .blend)."""
+    st = scene.emotive_lipsync
+    preset = userdata.load_preset(emotion) if emotion else st.preset()
+    coarticulation = coarticulation or st.coarticulation
+    if coarticulation not in COARTICULATION:
+        raise LipSyncError(f"{coarticulation!r} is not a coarticulation model: use {' or '.join(COARTICULATION)}")
+    if tolerance is None:
+        tolerance = st.tolerance if st.reduce_keys else 0.0
+    elif not tolerance >= 0:
+        raise LipSyncError(f"the key reduction tolerance must be 0 or more (0 keys every frame), got {tolerance}")
+    dictionary = dictionary or st.dictionary
+    return Options(preset, coarticulation, tolerance, bpy.path.abspath(dictionary) if dictionary else None,
+                   whole_character=st.whole_character, emotion_fade=st.emotion_fade)
 
 
 @dataclass
@@ -138,15 +165,9 @@ def companions(obj, shape_keys) -> list:
     return sorted(out, key=lambda o: o.name)
 
 
-def user_conventions_dir(create: bool = False) -> str | None:
-    """The folder where a studio keeps its own naming conventions."""
-    from .preset_ui import user_dir
-
-    return user_dir(create=create, kind="conventions") or None
-
-
 def all_conventions() -> list[conventions.Convention]:
-    folder = user_conventions_dir()
+    """The built-in naming conventions and the user's own."""
+    folder = userdata.conventions_folder()
     return conventions.load_all([folder] if folder else [])
 
 
@@ -274,7 +295,7 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
     driven = {k for mix in mp.values() for k in mix} | set(closure.relative)
     also = [o.name for o in companions(obj, driven)] if options.whole_character else []
-    find = emotion_markers.lookup()
+    find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
     return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
                 emotions=marks, find_preset=find)

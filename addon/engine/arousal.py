@@ -49,6 +49,8 @@ from .audio import Audio
 from .errors import LipSyncError
 
 DATA = Path(__file__).parent / "data" / "arousal.json"
+#: Names an arousal model file of the studio's own, used instead of :data:`DATA`.
+MODEL_ENV = "LIPSYNC_AROUSAL_MODEL"
 FEATURES = ("pitch", "centroid", "dynamics", "voiced", "rate")
 STEP = 0.01  # s, frame step of every feature track
 
@@ -94,15 +96,20 @@ class Frames:
 
 
 def load_model(path: str | os.PathLike | None = None) -> dict:
-    """The model's constants: ``path``, else ``$LIPSYNC_AROUSAL_MODEL``, else the built-in file.
+    """The model's constants: ``path``, else the file ``$LIPSYNC_AROUSAL_MODEL`` names, else the built-in one.
 
     A file is read and checked once while it is unchanged (a run asks for the
     model for every preset it renders); each call gets its own copy."""
-    path = Path(path or os.environ.get("LIPSYNC_AROUSAL_MODEL") or DATA)
+    from_env = path is None and os.environ.get(MODEL_ENV)
+    path = Path(path or from_env or DATA)
+    if not path.is_file():
+        named = f" named by {MODEL_ENV}" if from_env else ""
+        problem = "is a folder, not a file" if path.is_dir() else "does not exist"
+        raise LipSyncError(f"the arousal model file {path}{named} {problem}")
     try:
         stamp = path.stat().st_mtime_ns
     except OSError:
-        stamp = -1   # no such file: reading it says so
+        stamp = -1   # unreadable: reading it says why
     return copy.deepcopy(_read_model(path, stamp))
 
 

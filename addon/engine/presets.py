@@ -131,7 +131,8 @@ def validate(p: dict, source: str = "preset") -> dict:
         inf[c] = _num(source, f"rules.influence.{c}", inf.get(c), 0.0, 3.0)
     de = section(r, "deletion", "rules.deletion")
     no_extra(de, ("phones", "threshold"), "rules.deletion")
-    if not isinstance(de.get("phones"), list) or any(ph not in PHONEMES for ph in de["phones"]):
+    if not isinstance(de.get("phones"), list) or any(not isinstance(ph, str) or ph not in PHONEMES
+                                                     for ph in de["phones"]):
         raise PresetError(source, "rules.deletion.phones", f"must be a list of ARPAbet phonemes, got {de.get('phones')!r}")
     de["threshold"] = _num(source, "rules.deletion.threshold", de.get("threshold"), 0.0, 0.5)
 
@@ -154,6 +155,8 @@ def validate(p: dict, source: str = "preset") -> dict:
     p["gain"] = _num(source, "gain", p.get("gain"), 0.0, 3.0)
     if not isinstance(p.get("name", ""), str):
         raise PresetError(source, "name", "must be text")
+    if not isinstance(p.get("description", ""), str):
+        raise PresetError(source, "description", "must be text")
     return p
 
 

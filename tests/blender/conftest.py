@@ -13,7 +13,7 @@ runs 4.2, 4.5, 5.0, 5.2 and 5.3).  Two things here depend on the Blender:
   extension): the version shim must use the current names.
 * PyPI's ``bpy`` 4.2 is built without Audaspace and cannot add sound
   strips; :func:`add_strip` then pastes a strip read from a .blend instead
-  (see :func:`_paste_sound_strip`), and the tests that need the ``aud``
+  (see ``sample_rigs/sound_strips.py``), and the tests that need the ``aud``
   module themselves are skipped there (:data:`NEEDS_AUD`).
 * PyPI's ``bpy`` 4.2 and 4.3 crash (segmentation fault) while Python shuts
   down once any add-on class with a Python method was registered (an
@@ -32,7 +32,6 @@ import subprocess
 import sys
 import tempfile
 import warnings
-import wave
 
 # Blender reads these when bpy is first imported: keep the user's own
 # Blender configuration out of the tests, and give this run a temporary
@@ -55,6 +54,7 @@ MODULE = "bl_ext.user_default.emotive_lipsync"
 
 sys.path.insert(0, os.path.join(ROOT, "sample_rigs"))
 import build_rigs  # noqa: E402
+import sound_strips  # noqa: E402
 
 
 #: Tests that use Blender's ``aud`` module themselves, skipped on a ``bpy``
@@ -158,66 +158,12 @@ def no_deprecated_api():
 
 
 def add_strip(scene, name, path, frame=1, channel=1):
-    """A sound strip of ``path`` on ``channel``, its sound starting at ``frame``."""
+    """A sound strip of ``path`` on ``channel``, its sound starting at
+    ``frame`` (pasted from ``strip_template.blend`` on a ``bpy`` without
+    Audaspace: see ``sample_rigs/sound_strips.py``)."""
     from importlib import import_module
 
-    compat = import_module(MODULE + ".blender.compat")
-    if compat.AUDASPACE:
-        return compat.new_sound_strip(scene, name, path, channel, frame)
-    return _paste_sound_strip(scene, name, path, channel, frame)
-
-
-#: One sound strip 18000 frames long, read from a .blend (made by
-#: ``make_strip_template.py`` with Blender 4.5).
-STRIP_TEMPLATE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "strip_template.blend")
-
-
-def _paste_sound_strip(scene, name, path, channel, frame):
-    """A sound strip on a ``bpy`` without Audaspace, the way a studio's
-    .blend brings them: the template's strip is copied into ``scene`` through
-    the sequencer's clipboard, given the sound of ``path`` and trimmed to
-    the length Blender gives a new strip of that sound (its duration times
-    the scene's fps, rounded; checked against Blender 4.5 on the test
-    audio).  Only WAV files, whose duration the ``wave`` module reads."""
-    from importlib import import_module
-
-    compat = import_module(MODULE + ".blender.compat")
-    with bpy.data.libraries.load(STRIP_TEMPLATE, link=False) as (_src, dst):
-        dst.scenes = ["strip_template"]
-    template = dst.scenes[0]
-    if scene.sequence_editor is None:
-        scene.sequence_editor_create()
-    for s in compat.all_strips(scene):
-        s.select = False
-    before = set(compat.all_strips(scene))
-    win = bpy.context.window_manager.windows[0]
-    area = win.screen.areas[0]
-    old_type, area.type = area.type, "SEQUENCE_EDITOR"
-    region = next(r for r in area.regions if r.type == "WINDOW")
-    ctx = dict(window=win, area=area, region=region, scene=template)
-    try:
-        win.scene = template  # the copy operator reads the window's scene
-        with bpy.context.temp_override(**ctx):
-            compat.all_strips(template)[0].select = True
-            assert bpy.ops.sequencer.copy() == {"FINISHED"}
-        win.scene = scene
-        with bpy.context.temp_override(**dict(ctx, scene=scene)):
-            assert bpy.ops.sequencer.paste(keep_offset=True) == {"FINISHED"}
-    finally:
-        win.scene = scene
-        area.type = old_type
-        bpy.data.scenes.remove(template)
-    (strip,) = set(compat.all_strips(scene)) - before
-    placeholder = strip.sound
-    strip.sound = bpy.data.sounds.load(path, check_existing=False)
-    if placeholder.users == 0:
-        bpy.data.sounds.remove(placeholder)
-    strip.name, strip.channel, strip.frame_start = name, channel, frame
-    with wave.open(bpy.path.abspath(path)) as w:
-        seconds = w.getnframes() / w.getframerate()
-    length = max(1, round(seconds * scene.render.fps / scene.render.fps_base))
-    strip.frame_offset_end = strip.frame_duration - length
-    return strip
+    return sound_strips.add(import_module(MODULE + ".blender.compat"), scene, name, path, frame, channel)
 
 
 def fcurve_values(obj, shape_key):

@@ -1,6 +1,6 @@
 """Write ``strip_template.blend``: one long sound strip, for the tests on a
 ``bpy`` built without Audaspace (PyPI's 4.2 wheel), which cannot add sound
-strips but keeps those it reads from a .blend (see ``conftest.add_strip``).
+strips but keeps those it reads from a .blend (see ``sample_rigs/sound_strips.py``).
 
     .venv-bpy45/bin/python tests/blender/make_strip_template.py
 

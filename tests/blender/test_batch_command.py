@@ -73,7 +73,7 @@ def test_manifest_json_lines_all_good_and_unreadable_manifest(scene, tmp_path, c
     assert "2 of 2 lip-synced, 0 problems" in capsys.readouterr().out
     assert _command().execute(["--manifest", str(tmp_path / "missing.csv")]) == 1
     assert "cannot read manifest" in capsys.readouterr().err
-    assert _command().execute(["--manifest", str(manifest), "--all-strips"]) == 1
+    assert _command().execute(["--manifest", str(manifest), "--all-strips"]) == 2   # a usage error
 
 
 def test_all_strips_run_through_the_batch_runner(scene, capsys, monkeypatch):
@@ -95,3 +95,23 @@ def test_all_strips_run_through_the_batch_runner(scene, capsys, monkeypatch):
     assert _frames(bpy.data.objects["Ada"], "MBP")[0] == 1
     assert _frames(bpy.data.objects["Kit"], "mouthClose")[0] == 100
     assert "narrator" in capsys.readouterr().err
+
+
+def test_usage_errors_exit_with_status_2_and_key_nothing(scene, tmp_path, capsys):
+    """The README's exit statuses: 2 when the options themselves are wrong."""
+    manifest = tmp_path / "lines.csv"
+    manifest.write_text(f"audio,mesh\n{BOB},Ada\n")
+    for argv, said in ((["--audio", BOB], "--audio needs --mesh"),
+                       (["--manifest", str(manifest), "--all-strips"], "--manifest names every line itself"),
+                       (["--manifest", str(manifest), "--audio", BOB, "--mesh", "Ada"], "--manifest names every"),
+                       (["--audio", BOB, "--audio", PIE, "--mesh", "Ada", "--text", "Bob"], "exactly one"),
+                       (["--audio", BOB, "--mesh", "Ada", "--tolerance", "-0.1"], "negative"),
+                       (["--audio", BOB, "--mesh", "Ada", "--tolerance", "lots"], "not a number"),
+                       (["--scene", "Nope"], "no scene named 'Nope'"),
+                       (["--bogus"], "unrecognized arguments")):
+        assert _command().execute(argv) == 2, argv
+        assert said in capsys.readouterr().err, argv
+    assert bpy.data.objects["Ada"].data.shape_keys.animation_data is None
+    # What the options name is another matter: nothing lip-synced is status 1.
+    assert _command().execute(["--audio", BOB, "--mesh", "Nobody"]) == 1
+    assert "no object named 'Nobody'" in capsys.readouterr().err

@@ -33,7 +33,7 @@ def line(scene):
     with open(os.path.splitext(PIE)[0] + ".txt", encoding="utf-8") as fh:
         block.from_string(fh.read())
     scene.emotive_lipsync.text_block = block
-    folder = import_module(MODULE + ".blender.preset_ui").user_dir()
+    folder = import_module(MODULE + ".blender.userdata").folder(create=True)
     path = os.path.join(folder, "hushed.json")
     with open(path, "w", encoding="utf-8") as fh:
         json.dump({"name": "hushed", "base": "neutral", "gain": 0.35}, fh)

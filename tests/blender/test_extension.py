@@ -414,6 +414,27 @@ def test_panel_lists_what_is_missing(scene):
     assert panel.problems(bpy.context) == ["Unmapped visemes: FV"]
 
 
+def test_panel_shows_the_face_problem_the_operators_report(scene):
+    """One face lookup: what the panel lists is the operators' own error."""
+    panel = import_module(MODULE + ".blender.panel")
+    st = scene.emotive_lipsync
+    bpy.ops.object.camera_add()                     # the active object, no Face picked
+    st.target = None
+
+    def reported():
+        with pytest.raises(RuntimeError) as err:
+            bpy.ops.emotive_lipsync.clear()
+        said = str(err.value).removeprefix("Error: ").strip()
+        return said[:1].upper() + said[1:]
+
+    said = reported()
+    assert f"'{bpy.context.active_object.name}' is a camera, not a mesh" in said and said in panel.problems(bpy.context)
+    st.target = bpy.data.objects["Ada"]
+    st.target.shape_key_clear()
+    said = reported()
+    assert "'Ada' has no shape keys to animate" in said and said in panel.problems(bpy.context)
+
+
 def test_user_preset_saved_from_the_panel_drives_generation(scene):
     st = scene.emotive_lipsync
     assert bpy.ops.emotive_lipsync.preset_load(name="sad") == {"FINISHED"}
@@ -421,8 +442,8 @@ def test_user_preset_saved_from_the_panel_drives_generation(scene):
     gain = next(v for v in st.preset_values if v.path == "gain")
     gain.number = 0.5
     assert bpy.ops.emotive_lipsync.preset_add(name="mumbly") == {"FINISHED"}
-    preset_ui = import_module(MODULE + ".blender.preset_ui")
-    path = os.path.join(preset_ui.user_dir(), "mumbly.json")
+    userdata = import_module(MODULE + ".blender.userdata")
+    path = os.path.join(userdata.folder(create=True), "mumbly.json")
     assert _engine("presets").load(path).gain == 0.5
     add_strip(scene, "line", BOB, frame=1)
     assert _generate(mesh="Ada", emotion="mumbly") == {"FINISHED"}
@@ -455,8 +476,8 @@ def test_learn_preset_from_the_mesh_animation(scene):
     assert bpy.ops.emotive_lipsync.generate_all(emotion="angry") == {"FINISHED"}
     assert bpy.ops.emotive_lipsync.learn_preset(mesh="Ada", name="ada_angry", emotion="neutral",
                                                 holdout=0.34) == {"FINISHED"}
-    preset_ui = import_module(MODULE + ".blender.preset_ui")
-    path = os.path.join(preset_ui.user_dir(), "ada_angry.json")
+    userdata = import_module(MODULE + ".blender.userdata")
+    path = os.path.join(userdata.folder(create=True), "ada_angry.json")
     report = json.loads(open(path[:-5] + ".report.json").read())
     # Three strips: each is held out in turn and predicted by a preset learned from the other two.
     assert report["evaluation"] == "leave-one-clip-out" and len(report["per_clip"]) == 3

@@ -377,7 +377,7 @@ def test_learn_preset_job_saves_only_when_it_finishes(scene, jobs):
     learning = _mod("learning")
     kit = bpy.data.objects["Kit"]
     data = learning.collect(scene, kit, [])
-    path = os.path.join(_mod("preset_ui").user_dir(), "kit_job.json")
+    path = os.path.join(_mod("userdata").folder(create=True), "kit_job.json")
 
     cancelled = _started(learning.learn_job(scene, "arkit", data, "neutral", "kit_job", 0.34).start())
     cancelled.cancel()
