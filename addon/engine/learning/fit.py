@@ -107,6 +107,7 @@ class Setup:
     fps: float
     calibrated: bool             # proxies / viseme tracks: fixed poses, gain and offset per track
     M0: np.ndarray               # (visemes, channels): fixed poses, or the prior of learned ones
+    start_map: dict | None       # shape keys: the starting poses, viseme -> {channel: weight}
     P0: np.ndarray               # (classes, 4) the starting parameters
     ridge: float
     variance: float
@@ -372,17 +373,37 @@ def make_preset(setup: Setup, f: Fit, name: str, n_clips: int) -> dict:
     return presets.validate(out, name)
 
 
+def _start_map(vset, channels: list[str], given: dict | None) -> dict[str, dict[str, float]]:
+    """The starting poses on the tracks (see :func:`learn`)."""
+    if given is None:
+        return mapping.auto_map(vset, channels)
+    out = {}
+    for v, mix in given.items():
+        if v not in vset.visemes:
+            raise LipSyncError(f"the starting mapping names {v!r}, which is not a viseme of the {vset.name!r} set")
+        kept = {ch: float(w) for ch, w in mix.items() if ch in channels}
+        if kept:
+            out[v] = kept
+    return out
+
+
 def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_set: str = "arkit",
           name: str = "learned", holdout: float = 0.2, variance: float = 0.99, fps: float = 30.0,
           max_iter: int = 60, patience: int = 5, seed: int = 0, ridge: float = 1e-3,
           heldout: list[int] | None = None, cross_validate: bool | None = None, max_folds: int = MAX_FOLDS,
           regularisation: float = 1e-5, closure_weight: float = 3.0, delay: float | None = None,
-          keep_learned: bool = False, progress: Callable[[str, float], None] | None = None) -> Learned:
+          keep_learned: bool = False, start_map: dict[str, dict[str, float]] | None = None,
+          progress: Callable[[str, float], None] | None = None) -> Learned:
     """Fit a preset to ``clips`` (see the module docstring).
 
-    ``heldout`` picks the held-out clips by index; otherwise, with
-    ``max_folds`` clips or fewer (or ``cross_validate``), every clip is held
-    out in turn, else a ``holdout`` share of them is drawn with ``seed``.
+    ``start_map``: for shape-key tracks, the poses the starting preset
+    shows, viseme -> {track: weight} (a rig's own mapping; keys that are not
+    tracks are left out); by default the viseme set's own names and mixes
+    found among the tracks (:func:`..mapping.auto_map`), every track a
+    candidate whatever its column.  ``heldout`` picks the held-out clips by
+    index; otherwise, with ``max_folds`` clips or fewer (or
+    ``cross_validate``), every clip is held out in turn, else a ``holdout``
+    share of them is drawn with ``seed``.
     ``delay`` fixes the capture's delay to the sound (s) instead of
     estimating it.
     """
@@ -407,12 +428,12 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_
         M0 = proxies.poses(vset, channels)
         base_mp = None
     else:
-        base_mp = mapping.auto_map(vset, channels)
+        base_mp = _start_map(vset, channels, start_map)
         M0 = np.zeros((len(vset.visemes), len(channels)))
         for v, mix in base_mp.items():
             for ch, w in mix.items():
                 M0[vset.index(v), channels.index(ch)] = w
-    setup = Setup(base, vset, channels, fps, calibrated, M0, params_matrix(base), ridge, variance,
+    setup = Setup(base, vset, channels, fps, calibrated, M0, base_mp, params_matrix(base), ridge, variance,
                   regularisation, closure_weight, delay)
 
     if heldout is not None:

@@ -30,10 +30,7 @@ def _predict(setup, preset: dict, clips, train, delay: float, cache: dict) -> li
         if learned:
             vs, mp = visemes.with_targets(setup.vset, learned["targets"]), learned["targets"]
         else:
-            vs, mp = setup.vset, None
-        if mp is None:
-            from .. import mapping
-            mp = mapping.auto_map(setup.vset, setup.channels)
+            vs, mp = setup.vset, setup.start_map
         return [synthesise(c, preset, vs, setup.channels, setup.fps, mp) for c in clips]
 
     def raw(c):
