@@ -334,8 +334,9 @@ def detect(shape_keys: list[str], conventions: list[Convention], viseme_sets: di
     """The convention the mesh follows (module docstring), or None.
 
     ``shape_keys``: the mesh's key blocks in order, so the first is the basis
-    (Blender's reference key), which is never driven.  ``viseme_set`` limits the choice to conventions of that set (the user
-    picked it); ``viseme_sets`` holds every set the conventions name.
+    (Blender's reference key), which is never driven.  ``viseme_set``
+    limits the choice to conventions of that set (the user picked it);
+    ``viseme_sets`` holds every set the conventions name.
     """
     index = NameIndex(shape_keys[1:], mesh_names)
     best, best_score = None, None
