@@ -7,6 +7,7 @@ same poses, so the starting preset already predicts every channel well: a
 starting correlation near 0 would mean the baseline lost a channel.
 """
 
+import io
 import json
 
 import numpy as np
@@ -81,6 +82,37 @@ def test_column_order_changes_nothing(takes, tmp_path, capsys):
     for report in (a, b):
         first = report["per_track"][report["channels"][0]]["start"]["correlation"]
         assert first > 0.9, report["channels"][0]
+    # The printed table names every track in full.
+    rows = [line.split() for line in said.splitlines() if line.startswith("mean ")]
+    assert [r[1] for r in rows] == CHANNELS[:6]
+
+
+def test_progress_is_plain_lines_when_not_a_terminal(takes, tmp_path, capsys):
+    _report, _said, err = _learn(_write(tmp_path / "a", takes[:2], CHANNELS), tmp_path / "a.json", capsys)
+    assert "\r" not in err
+    assert err.splitlines() == ["aligning the clips", "preparing the tracks", "fitting",
+                                "evaluating on the held-out clips"]
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_is_a_bar_on_a_terminal():
+    """One bar over the whole run, as ``batch`` shows on a terminal."""
+    tty = _Terminal()
+    with learn.Console(tty) as progress:
+        for step in ("align", "prepare", "fit", "evaluate", "done"):
+            progress(step, 0.0)
+            progress(step, 1.0)
+    shown = tty.getvalue()
+    assert "\r" in shown and "fit" in shown and "100%" in shown and "\n" not in shown
+    log = io.StringIO()
+    with learn.Console(log) as progress:
+        progress("fit", 0.2)
+        progress("fit", 0.7)
+    assert log.getvalue() == "fitting\n"
 
 
 def test_a_rigs_own_mapping_is_the_start(takes):

@@ -111,8 +111,7 @@ def summary(result: learn.Learned, path: str) -> tuple[str, str]:
 
 
 #: Where each step of :func:`work` lies in the whole: (start, share).
-PHASES = {"align": (0.0, 0.3), "prepare": (0.3, 0.1), "fit": (0.4, 0.5), "evaluate": (0.9, 0.1),
-          "done": (1.0, 0.0)}
+PHASES = learn.PHASES
 
 
 def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: float,

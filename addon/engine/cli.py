@@ -163,9 +163,7 @@ def main(argv: list[str] | None = None) -> int:
 def _learn(args) -> int:
     from . import learn
 
-    def progress(step, frac):
-        print(f"\r{step:>9} {100 * frac:5.1f} %", end="", file=sys.stderr, flush=True)
-
+    progress = learn.Console()      # a bar on a terminal, else a line per step
     try:
         if not (0.0 < args.holdout < 1.0):
             raise LipSyncError("--holdout must be between 0 and 1")
@@ -183,10 +181,11 @@ def _learn(args) -> int:
                              keep_learned=args.keep_learned)
         preset_path, report_path = result.save(args.out)
     except LipSyncError as exc:
-        print(f"\nerror: {exc}", file=sys.stderr)
+        progress.close()
+        print(f"error: {exc}", file=sys.stderr)
         return 1
+    progress.close()
     r = result.report
-    print(file=sys.stderr)
     print(learn.summary_text(r))
     print(f"wrote {preset_path} and {report_path}")
     return 0

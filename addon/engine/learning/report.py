@@ -135,13 +135,15 @@ def table(report: dict, channels: list[str] | None = None) -> str:
     def f(v, fmt):
         return "   -  " if v is None else format(v, fmt)
 
-    lines = [f"{'clip':24} {'track':14} {'corr learned/start':>19} {'RMSE learned/start':>19} "
-             f"{'peak ms learned/start':>22}"]
     rows = [(pc["clip"], pc["tracks"]) for pc in report["per_clip"]] + [("mean", report["per_track"])]
+    cw = max(len("clip"), *(len(clip) for clip, _t in rows))      # names in full: no two tracks look alike
+    tw = max([len("track")] + [len(ch) for ch in chans])
+    lines = [f"{'clip':{cw}} {'track':{tw}} {'corr learned/start':>19} {'RMSE learned/start':>19} "
+             f"{'peak ms learned/start':>22}"]
     for clip, tracks in rows:
         for ch in chans:
             t = tracks[ch]
-            lines.append(f"{clip[:24]:24} {ch[:14]:14} {f(t['learned']['correlation'], '6.3f'):>9} "
+            lines.append(f"{clip:{cw}} {ch:{tw}} {f(t['learned']['correlation'], '6.3f'):>9} "
                          f"{f(t['start']['correlation'], '6.3f'):>9} {f(t['learned']['rmse'], '7.4f'):>9} "
                          f"{f(t['start']['rmse'], '7.4f'):>9} {f(t['learned']['peak_timing_ms'], '6.1f'):>10} "
                          f"{f(t['start']['peak_timing_ms'], '6.1f'):>10}")
