@@ -131,3 +131,36 @@ def test_a_rigs_own_mapping_is_the_start(takes):
         assert seen["per_track"][ch]["start"]["correlation"] > 0.25, ch   # rounding barely moves in two lines
     assert seen["per_track"][own["jawOpen"]]["start"]["correlation"] > 0.9
     assert seen["summary"]["start"]["correlation"] > 0.7
+
+
+def test_what_the_data_cannot_improve_is_kept_what_it_can_is_learned(takes):
+    """An actor who moves the jaw further than the arkit set's poses, and
+    rounds the lips exactly as they do, with the starting preset's timing:
+    the jaw poses are learned, the rounding poses kept, and no track ends
+    worse than the start."""
+    vs = visemes.load("arkit")
+    start = {v: dict(m) for v, m in vs.shape_keys.items()}
+    actor = {v: {k: (min(1.0, w + 0.3) if k == "jawOpen" else w) for k, w in mix.items()} for v, mix in start.items()}
+    neutral = presets.load("neutral")
+    rng = np.random.default_rng(4)
+    clips = []
+    for name, snd, _text, _times, _y, al in takes:
+        probe = learn.TrainingClip("probe", snd, al, np.array([0.0, snd.duration]), np.zeros((2, len(CHANNELS))),
+                                   CHANNELS)
+        prepared = learn.prepare(probe, vs, neutral, 60.0, CHANNELS)
+        y = learn.synthesise(prepared, neutral, visemes.with_targets(vs, actor), CHANNELS, 60.0, actor)
+        clips.append(learn.TrainingClip(name, snd, al, prepared.times, y + rng.normal(0, 0.01, y.shape), CHANNELS))
+    result = learn.learn(clips, emotion="neutral", viseme_set="arkit", name="jaw")
+    r = result.report
+    assert "jaw poses" in r["parts"]["learned"] and "rounding poses" in r["parts"]["kept"], r["parts"]
+    jaw = r["per_track"]["jawOpen"]
+    assert jaw["learned"]["rmse"] < 0.6 * jaw["start"]["rmse"]
+    for ch, t in r["per_track"].items():
+        assert t["learned"]["rmse"] <= 1.005 * t["start"]["rmse"], ch
+        if t["start"]["correlation"] is not None:
+            assert t["learned"]["correlation"] >= t["start"]["correlation"] - 0.01, ch
+    targets = result.preset["learned"]["targets"]
+    assert targets["aa"]["jawOpen"] == pytest.approx(1.0, abs=0.1)
+    assert targets["ou"]["mouthPucker"] == start["ou"]["mouthPucker"]          # kept as the start shows it
+    assert all(0.0 <= w <= 1.0 for mix in targets.values() for w in mix.values())
+    assert "jaw poses" in result.preset["description"] and "rounding" not in result.preset["description"]

@@ -102,12 +102,16 @@ def summary(result: learn.Learned, path: str) -> tuple[str, str]:
            f"{len(r['per_clip'])} held out): correlation {num(le['correlation'], '.3f')} vs "
            f"{num(st['correlation'], '.3f')} for {r['base_preset']}, RMSE {le['rmse']:.4f} vs {st['rmse']:.4f}, "
            f"peak timing {num(le['peak_timing_ms'], '.0f')} vs {num(st['peak_timing_ms'], '.0f')} ms")
-    if r["better_than_builtin"]:
-        return "INFO", msg + f"; saved to {path}"
+    parts = r.get("parts", {})
+    learned = f"; learned {', '.join(parts.get('learned', []))}, the rest kept from {r['base_preset']}"
     if r["kept"] == "start":
-        return "WARNING", (msg + f": NOT better than {r['base_preset']}, so {r['name']!r} keeps "
+        return "WARNING", (msg + f": no part did better than {r['base_preset']}, so {r['name']!r} keeps "
                            f"{r['base_preset']}'s numbers (saved to {path})")
-    return "WARNING", msg + f": NOT better than {r['base_preset']} (kept as asked; saved to {path})"
+    if r["better_than_builtin"]:
+        return "INFO", msg + learned + f"; saved to {path}"
+    if parts.get("check") is None:
+        return "WARNING", msg + f": NOT better than {r['base_preset']} (kept as asked; saved to {path})"
+    return "INFO", msg + learned + f" (no track worse than with it; saved to {path})"
 
 
 #: Where each step of :func:`work` lies in the whole: (start, share).
@@ -155,8 +159,8 @@ captured lip sync), and save it as one of your presets"""
                            description="Share of the strips kept aside to check the learned preset when there "
                                        "are more than 8 (with fewer, each strip is held out in turn)")
     keep_learned: BoolProperty(name="Keep Learned", default=False,
-                               description="Keep the learned preset even when it is not better than the one it "
-                                           "started from on the held-out strips")
+                               description="Keep every learned part (timing and poses), even those not better "
+                                           "than the preset it started from on the held-out strips")
 
     def _prepare(self, context):
         from .operators import _mesh

@@ -80,7 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     le.add_argument("--track-map", metavar="MAP",
                     help="the CSVs hold generic tracks, not ARKit blendshapes: " + capture.TRACK_MAP_HELP)
     le.add_argument("--keep-learned", action="store_true",
-                    help="write the learned preset even when it is not better than the starting one")
+                    help="take every learned part, even those the held-out check keeps from the starting preset")
     le.add_argument("--variance", type=float, default=0.99, help="share of variance the PCA keeps (0.99)")
     le.add_argument("--capture-fps", type=float, default=60.0, help="frame rate of CSV timecodes (60)")
     le.add_argument("--fps", type=float, default=30.0, help="frame rate the model is fitted at (30)")

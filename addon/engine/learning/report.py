@@ -6,9 +6,11 @@ RMSE and peak-timing error (ms between each clear opening or closure of the
 measured track and the prediction's), for both presets.  The measured
 tracks are read at the capture's estimated delay; proxy and viseme tracks
 go through each preset's own calibration (gain and offset per track,
-fitted on the training clips).  The learned preset is better when, on the
-held-out clips, its mean correlation over tracks is higher AND its RMSE is
-lower; the report says so plainly either way.
+fitted on the training clips).  The learned preset is the one written: the
+parts of the fit the held-out check kept (:mod:`.select`), each fold's own.
+It is better when, on the held-out clips, its mean correlation over tracks
+is higher AND its RMSE is lower; the report says so plainly either way, and
+names the parts learned and kept.
 """
 
 from __future__ import annotations
@@ -169,9 +171,13 @@ def summary_text(report: dict) -> str:
         c = "-" if s["correlation"] is None else f"{s['correlation']:.3f}"
         lines.append(f"  {label:18} held out: correlation {c}, RMSE {s['rmse']:.4f}, peak timing {pt}")
     lines.append(r["verdict"] + ".")
+    parts = r.get("parts")
+    if parts:
+        lines.append(f"learned: {', '.join(parts['learned']) or 'nothing'}")
+        lines.append(f"kept from {r.get('base_preset')}: {', '.join(parts['kept']) or 'nothing'}")
     if r.get("kept") == "start":
-        lines.append(f"kept the starting preset {r.get('base_preset')!r} under the new name "
-                     "(--keep-learned writes the learned one)")
-    elif not r["better_than_builtin"]:
-        lines.append("wrote the learned preset anyway, as asked")
+        lines.append(f"kept the starting preset {r.get('base_preset')!r} under the new name: no part did better on "
+                     "the held-out clips (--keep-learned writes everything learned)")
+    elif parts and parts.get("check") is None:
+        lines.append("wrote every learned part, as asked")
     return "\n".join(lines)
