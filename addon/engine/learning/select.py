@@ -21,8 +21,9 @@ may also be taken part of the way, its parameters moved by a share of
 ``SHARES`` from the start toward the fit (in log space).  The check starts
 from the best admissible candidate that moves every timing part by one share
 (or from the start), then raises one part's share at a time, the change that
-raises the score most first, while the score rises by at least ``MIN_GAIN``
-and the candidate stays admissible.  Pose parts change only their own
+raises the score most first, while the candidate stays admissible and the
+score rises by at least ``MIN_GAIN`` and by more than the standard error of
+that rise over the held-out clips (a rise one clip alone makes is chance).  Pose parts change only their own
 tracks, so with each timing candidate each pose part is learned when that
 lowers its tracks' RMSE beyond noise (``NOISE_RMSE``), raises their score
 and keeps them admissible, else kept.  The blends
@@ -58,7 +59,7 @@ class Judge:
         self.measured = [[prepared[i].aligned(f.delay) for i in ho] for _tr, ho, f in folds]
         Y = np.concatenate([y for ys in self.measured for y in ys])
         self.spread = np.maximum(Y.std(axis=0), 1e-9)
-        self.base = self.means(self._predict({})[0])
+        self.base = self.means(self.table(self._predict({})[0]))
 
     # --- predictions ------------------------------------------------------------------
 
@@ -88,24 +89,39 @@ class Judge:
 
     # --- scores ----------------------------------------------------------------------------
 
-    def means(self, preds) -> list[tuple]:
-        """Per track: (mean correlation or None, mean RMSE) over the held-out clips."""
-        n = len(self.s.channels)
-        corr, rmse = [[] for _ in range(n)], [[] for _ in range(n)]
+    def table(self, preds) -> tuple[np.ndarray, np.ndarray]:
+        """(correlation, RMSE), each (held-out clips, tracks); NaN where the
+        measured track does not move."""
+        corr, rmse = [], []
         for fold_preds, ys in zip(preds, self.measured):
             for p, y in zip(fold_preds, ys):
-                for j in range(n):
-                    c = track_correlation(p[:, j], y[:, j])
-                    if c is not None:
-                        corr[j].append(c)
-                    rmse[j].append(float(np.sqrt(((p[:, j] - y[:, j]) ** 2).mean())))
-        return [(float(np.mean(c)) if c else None, float(np.mean(r))) for c, r in zip(corr, rmse)]
+                c = [track_correlation(p[:, j], y[:, j]) for j in range(y.shape[1])]
+                corr.append([np.nan if v is None else v for v in c])
+                rmse.append(np.sqrt(((p - y) ** 2).mean(axis=0)))
+        return np.array(corr, float), np.array(rmse, float)
+
+    @staticmethod
+    def means(tab) -> list[tuple]:
+        """Per track: (mean correlation or None, mean RMSE) over the held-out clips."""
+        corr, rmse = tab
+        out = []
+        for j in range(corr.shape[1]):
+            c = corr[:, j][~np.isnan(corr[:, j])]
+            out.append((float(c.mean()) if len(c) else None, float(rmse[:, j].mean())))
+        return out
 
     def score(self, means, tracks=None) -> float:
+        """Mean correlation minus mean RMSE in units of each track's spread."""
         tracks = range(len(means)) if tracks is None else tracks
         cs = [means[j][0] for j in tracks if means[j][0] is not None]
         rs = [means[j][1] / self.spread[j] for j in tracks]
         return (float(np.mean(cs)) if cs else 0.0) - float(np.mean(rs))
+
+    def per_clip(self, tab) -> np.ndarray:
+        """The score of each held-out clip."""
+        corr, rmse = tab
+        c = np.array([np.nanmean(row) if np.isfinite(row).any() else 0.0 for row in corr])
+        return c - (rmse / self.spread).mean(axis=1)
 
     def worse(self, means, tracks=None) -> list[int]:
         """Tracks worse than with the starting preset beyond noise."""
@@ -118,17 +134,29 @@ class Judge:
                 out.append(j)
         return out
 
+    @staticmethod
+    def gains(new, old) -> bool:
+        """Whether ``new`` beats ``old`` (per-clip scores) by at least
+        ``MIN_GAIN`` on average, and by more than the spread of the gain
+        over the held-out clips (its standard error)."""
+        d = np.asarray(new) - np.asarray(old)
+        if d.mean() < MIN_GAIN:
+            return False
+        return len(d) < 2 or d.mean() > d.std(ddof=1) / np.sqrt(len(d))
+
     # --- the choice ------------------------------------------------------------------------
 
-    def candidate(self, timing: dict) -> tuple[float, list, frozenset]:
-        """(score, per-track means, pose parts learned) of the timing parts
-        moved by the shares ``timing`` with the best admissible choice of
-        pose parts."""
+    def candidate(self, timing: dict):
+        """(score, per-track means, pose parts learned, per-clip scores) of
+        the timing parts moved by the shares ``timing`` with the best
+        admissible choice of pose parts."""
         start, learned = self._predict(timing)
-        means = self.means(start)
+        corr, rmse = self.table(start)
+        means = self.means((corr, rmse))
         chosen = set()
         if learned is not None and self.poses:
-            lmeans = self.means(learned)
+            lcorr, lrmse = self.table(learned)
+            lmeans = self.means((lcorr, lrmse))
             for part in self.poses:
                 cols = list(part.cells)
                 closer = sum(lmeans[j][1] for j in cols) < (1 - NOISE_RMSE) * sum(means[j][1] for j in cols)
@@ -136,21 +164,22 @@ class Judge:
                 if not closer or gain < MIN_GAIN or self.worse(lmeans, cols):
                     continue
                 chosen.add(part)
+                corr[:, cols], rmse[:, cols] = lcorr[:, cols], lrmse[:, cols]
                 for j in cols:
                     means[j] = lmeans[j]
-        return self.score(means), means, frozenset(chosen)
+        return self.score(means), means, frozenset(chosen), self.per_clip((corr, rmse))
 
     def choose(self) -> tuple[dict, frozenset, dict]:
         """(share of each timing part learned, pose parts learned, what the check found)."""
         timing: dict = {}
-        best, best_means, best_poses = self.candidate(timing)
+        best, _means, best_poses, best_clips = self.candidate(timing)
         start_score = self.score(self.base)
         steps = []
         for t in SHARES:
             every = {part: t for part in self.timing}
-            sc, means, poses = self.candidate(every)
-            if every and not self.worse(means) and sc > best + MIN_GAIN:
-                timing, best, best_means, best_poses = every, sc, means, poses
+            sc, means, poses, clips = self.candidate(every)
+            if every and not self.worse(means) and self.gains(clips, best_clips):
+                timing, best, best_poses, best_clips = every, sc, poses, clips
                 steps.append({"every timing part": t, "score": round(sc, 4)})
         while True:
             tried = []
@@ -160,15 +189,13 @@ class Judge:
                         continue
                     cand = dict(timing)
                     cand[part] = t
-                    sc, means, poses = self.candidate(cand)
-                    if not self.worse(means):
-                        tried.append((sc, part.name, t, cand, means, poses))
+                    sc, means, poses, clips = self.candidate(cand)
+                    if not self.worse(means) and self.gains(clips, best_clips):
+                        tried.append((sc, part.name, t, cand, poses, clips))
             if not tried:
                 break
-            sc, name, t, cand, means, poses = max(tried, key=lambda c: (c[0], c[1], -c[2]))
-            if sc < best + MIN_GAIN:
-                break
-            timing, best, best_means, best_poses = cand, sc, means, poses
+            sc, name, t, cand, poses, clips = max(tried, key=lambda c: (c[0], c[1], -c[2]))
+            timing, best, best_poses, best_clips = cand, sc, poses, clips
             steps.append({name: t, "score": round(sc, 4)})
         found = {"start_score": round(start_score, 4), "score": round(best, 4), "steps": steps,
                  "noise": {"correlation": NOISE_CORRELATION, "rmse": NOISE_RMSE, "predicted": PREDICTED}}
