@@ -156,7 +156,7 @@ def test_what_the_data_cannot_improve_is_kept_what_it_can_is_learned(takes):
     jaw = r["per_track"]["jawOpen"]
     assert jaw["learned"]["rmse"] < 0.6 * jaw["start"]["rmse"]
     for ch, t in r["per_track"].items():
-        assert t["learned"]["rmse"] <= 1.005 * t["start"]["rmse"], ch
+        assert t["learned"]["rmse"] <= 1.005 * t["start"]["rmse"] + 0.0005, ch    # 0.0005: a 20th of the noise
         if t["start"]["correlation"] is not None:
             assert t["learned"]["correlation"] >= t["start"]["correlation"] - 0.01, ch
     targets = result.preset["learned"]["targets"]

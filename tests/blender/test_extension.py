@@ -471,7 +471,7 @@ def test_learn_preset_from_the_mesh_animation(scene):
     assert report["learned"]["heldout"]["rmse"] < report["builtin"]["heldout"]["rmse"]
     assert report["kept"] == "learned" and report["parts"]["learned"]
     for ch, t in report["per_track"].items():
-        assert t["learned"]["rmse"] <= 1.005 * t["start"]["rmse"], ch
+        assert t["learned"]["rmse"] <= 1.005 * t["start"]["rmse"] + 0.0005, ch
         if t["start"]["correlation"] is not None:
             assert t["learned"]["correlation"] >= t["start"]["correlation"] - 0.01, ch
     assert scene.emotive_lipsync.emotion == "ada_angry"

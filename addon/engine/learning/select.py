@@ -13,7 +13,10 @@ on the held-out clips of every fold, each predicted by its own fold's fit:
 * a candidate is *admissible* when no track is worse than with the starting
   preset beyond noise: correlation lower by more than ``NOISE_CORRELATION``
   (on a track one of them predicts, correlation ``PREDICTED`` or more) or
-  RMSE higher by more than ``NOISE_RMSE`` of the start's.
+  RMSE higher by more than ``NOISE_RMSE`` of the start's (or of the tracks'
+  mean spread, if more: a track that only carries the capture's noise may
+  not be fitted closer than its noise, but a change far below what the
+  other tracks move is no change).
 
 Timing parts change every track, and one set of dominance parameters
 serves them all: what helps the jaw may cost the rounding.  So a timing part
@@ -59,6 +62,7 @@ class Judge:
         self.measured = [[prepared[i].aligned(f.delay) for i in ho] for _tr, ho, f in folds]
         Y = np.concatenate([y for ys in self.measured for y in ys])
         self.spread = np.maximum(Y.std(axis=0), 1e-9)
+        self.scale = float(self.spread.mean())   # how much the tracks move, all together
         self.base = self.means(self.table(self._predict({})[0]))
 
     # --- predictions ------------------------------------------------------------------
@@ -130,7 +134,7 @@ class Judge:
         for j in tracks:
             (c, r), (c0, r0) = means[j], self.base[j]
             signal = c is not None and c0 is not None and max(abs(c), abs(c0)) >= PREDICTED
-            if (signal and c < c0 - NOISE_CORRELATION) or r > r0 * (1 + NOISE_RMSE) + 1e-12:
+            if (signal and c < c0 - NOISE_CORRELATION) or r > r0 + NOISE_RMSE * max(r0, self.scale) + 1e-12:
                 out.append(j)
         return out
 
