@@ -121,7 +121,7 @@ class Setup:
     closure_weight: float
     delay: float | None          # None: estimate it
     gain0: float = 1.0           # the starting preset's gain (learned poses carry it: a learned preset's is 1)
-    pose_prior: float = 0.0      # frames: how strongly poses are pulled toward the start (model.solve_poses)
+    pose_prior: float = 0.0      # frames: how strongly poses are pulled toward the start (model.bounded_poses)
 
 
 @dataclass
@@ -441,7 +441,10 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict = "neutral", viseme_
     ``cross_validate``), every clip is held out in turn, else a ``holdout``
     share of them is drawn with ``seed``.
     ``delay`` fixes the capture's delay to the sound (s) instead of
-    estimating it.
+    estimating it.  ``pose_prior`` (s): how strongly learned poses are
+    pulled toward the starting ones, as that much of a viseme shown in full.
+    ``keep_learned`` takes every part of the fit; otherwise the held-out
+    check picks them (:mod:`.select`).
     """
     def tell(step, frac):
         if progress:
