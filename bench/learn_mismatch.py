@@ -28,6 +28,21 @@ sys.path.insert(0, str(ROOT / "tests"))
 import mismatch  # noqa: E402
 
 
+def per_track_change(r: dict) -> str:
+    """Learned minus start per track on the held-out clips, and whether any
+    track is worse beyond noise (correlation -0.01, RMSE +0.5 %)."""
+    out, worse = [], []
+    for ch in r["channels"]:
+        t = r["per_track"][ch]
+        lc, sc = t["learned"]["correlation"], t["start"]["correlation"]
+        dc = None if lc is None or sc is None else lc - sc
+        rel = t["learned"]["rmse"] / t["start"]["rmse"] - 1 if t["start"]["rmse"] > 0 else 0.0
+        out.append(f"{ch} r {'-' if dc is None else f'{dc:+.3f}'} RMSE {100 * rel:+.1f} %")
+        if (dc is not None and dc < -0.01) or rel > 0.005:
+            worse.append(ch)
+    return ("learned - start: " + "; ".join(out) + "; worse beyond noise: " + (", ".join(worse) or "none"))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--delay-ms", type=float, nargs="+", default=[30.0, 60.0])
@@ -41,6 +56,7 @@ def main() -> int:
         print(f"== capture delay {d:.0f} ms: {len(clips)} clips, learned in {time.perf_counter() - t0:.1f} s; "
               f"delay found {r['delay_ms']:.1f} ms (error {r['delay_ms'] - d:+.1f} ms)")
         print(learn.summary_text(r))
+        print(per_track_change(r))
         print()
     return 0
 

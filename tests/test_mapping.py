@@ -23,9 +23,15 @@ def test_default_set_aliases_ignore_case_and_separators():
     assert "TH" in mapping.unmapped(vs, mp)
 
 
-def test_basis_is_never_driven():
-    vs = visemes.load("default")
-    assert mapping.auto_map(vs, ["MBP"]) == {}  # the first key is the basis
+def test_every_name_given_may_be_driven_whatever_its_place():
+    """Capture tracks have no basis: the first is mapped like the others
+    (a mesh's basis is left out by whoever holds its key blocks)."""
+    assert mapping.auto_map(visemes.load("default"), ["MBP"]) == {"MBP": {"MBP": 1.0}}
+    vs = visemes.load("arkit")
+    tracks = ["jawOpen", "mouthClose", "mouthFunnel", "mouthPucker"]
+    mp = mapping.auto_map(vs, tracks)
+    assert mp["aa"] == {"jawOpen": 0.7} and mp["PP"] == {"mouthClose": 1.0}
+    assert mapping.auto_map(vs, tracks[::-1]) == mp
 
 
 def test_arkit_mix_keeps_the_blendshapes_the_mesh_has():

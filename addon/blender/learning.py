@@ -62,9 +62,24 @@ def collect(scene, obj, strip_names: list[str] | None = None):
     return out
 
 
+def start_mapping(obj) -> tuple[str, dict[str, dict[str, float]]]:
+    """The viseme set and the mapping the mesh is animated with (its own, or
+    the one Auto-Map would detect, which is not stored): the starting
+    preset's poses on the mesh's keys, so learning starts from what
+    generating shows."""
+    st = obj.emotive_lipsync
+    mp = st.mapping_dict()
+    if mp:
+        return run.mesh_viseme_set(obj).name, mp
+    found = run.detect(obj)
+    return found.convention.viseme_set, found.mapping
+
+
 def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progress=None,
-         keep_learned: bool = False) -> learn.Learned:
-    """Align and fit (no Blender data touched: safe in a thread)."""
+         keep_learned: bool = False, start_map: dict | None = None) -> learn.Learned:
+    """Align and fit (no Blender data touched: safe in a thread).
+    ``start_map``: the mesh's mapping (:func:`start_mapping`); None: the
+    viseme set's own names."""
     clips = []
     for k, (label, audio, text, times, values, names) in enumerate(data):
         if progress:
@@ -72,7 +87,7 @@ def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progres
         al = align_audio(audio, text)
         clips.append(learn.TrainingClip(label, audio, al, times, values, names))
     return learn.learn(clips, emotion=emotion, viseme_set=viseme_set, name=name, holdout=holdout,
-                       progress=progress, keep_learned=keep_learned)
+                       progress=progress, keep_learned=keep_learned, start_map=start_map)
 
 
 def summary(result: learn.Learned, path: str) -> tuple[str, str]:
@@ -88,21 +103,24 @@ def summary(result: learn.Learned, path: str) -> tuple[str, str]:
            f"{len(r['per_clip'])} held out): correlation {num(le['correlation'], '.3f')} vs "
            f"{num(st['correlation'], '.3f')} for {r['base_preset']}, RMSE {le['rmse']:.4f} vs {st['rmse']:.4f}, "
            f"peak timing {num(le['peak_timing_ms'], '.0f')} vs {num(st['peak_timing_ms'], '.0f')} ms")
-    if r["better_than_builtin"]:
-        return "INFO", msg + f"; saved to {path}"
+    parts = r.get("parts", {})
+    learned = f"; learned {', '.join(parts.get('learned', []))}, the rest kept from {r['base_preset']}"
     if r["kept"] == "start":
-        return "WARNING", (msg + f": NOT better than {r['base_preset']}, so {r['name']!r} keeps "
+        return "WARNING", (msg + f": no part did better than {r['base_preset']}, so {r['name']!r} keeps "
                            f"{r['base_preset']}'s numbers (saved to {path})")
-    return "WARNING", msg + f": NOT better than {r['base_preset']} (kept as asked; saved to {path})"
+    if r["better_than_builtin"]:
+        return "INFO", msg + learned + f"; saved to {path}"
+    if parts.get("check") is None:
+        return "WARNING", msg + f": NOT better than {r['base_preset']} (kept as asked; saved to {path})"
+    return "INFO", msg + learned + f" (no track worse than with it; saved to {path})"
 
 
 #: Where each step of :func:`work` lies in the whole: (start, share).
-PHASES = {"align": (0.0, 0.3), "prepare": (0.3, 0.1), "fit": (0.4, 0.5), "evaluate": (0.9, 0.1),
-          "done": (1.0, 0.0)}
+PHASES = learn.PHASES
 
 
 def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: float,
-              keep_learned: bool = False) -> jobs.Job:
+              keep_learned: bool = False, start_map: dict | None = None) -> jobs.Job:
     """Learning as a job: the preset is saved with the user's presets and
     loaded into the scene's panel when it is done."""
     scene_name = scene.name
@@ -117,7 +135,8 @@ def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: fl
         return summary(result, path)
 
     return jobs.Job(jobs.LEARN, f"Learning preset {name!r}",
-                    lambda progress: work(data, viseme_set, emotion, name, holdout, progress, keep_learned), finish,
+                    lambda progress: work(data, viseme_set, emotion, name, holdout, progress, keep_learned,
+                                          start_map), finish,
                     phases=PHASES)
 
 
@@ -139,8 +158,8 @@ captured lip sync), and save it as one of your presets"""
                            description="Share of the strips kept aside to check the learned preset when there "
                                        "are more than 8 (with fewer, each strip is held out in turn)")
     keep_learned: BoolProperty(name="Keep Learned", default=False,
-                               description="Keep the learned preset even when it is not better than the one it "
-                                           "started from on the held-out strips")
+                               description="Keep every learned part (timing and poses), even those not better "
+                                           "than the preset it started from on the held-out strips")
 
     def _prepare(self, context):
         obj = face(context, self.mesh)
@@ -153,12 +172,13 @@ captured lip sync), and save it as one of your presets"""
             raise LipSyncError("learning needs one of the built-in viseme sets on the mesh")
         names = [n.strip() for n in self.strips.split(",") if n.strip()]
         data = collect(context.scene, obj, names)
-        return obj, run.mesh_viseme_set(obj).name, data
+        vset, mp = start_mapping(obj)
+        return obj, vset, data, mp
 
     def _job(self, context) -> jobs.Job:
-        _obj, vset, data = self._prepare(context)
+        _obj, vset, data, mp = self._prepare(context)
         return learn_job(context.scene, vset, data, self.emotion, userdata.check_name(self.name), self.holdout,
-                         self.keep_learned)
+                         self.keep_learned, mp)
 
     def execute(self, context):
         try:

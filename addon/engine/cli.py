@@ -81,7 +81,7 @@ def _parser() -> argparse.ArgumentParser:
     le.add_argument("--track-map", metavar="MAP",
                     help="the CSVs hold generic tracks, not ARKit blendshapes: " + capture.TRACK_MAP_HELP)
     le.add_argument("--keep-learned", action="store_true",
-                    help="write the learned preset even when it is not better than the starting one")
+                    help="take every learned part, even those the held-out check keeps from the starting preset")
     le.add_argument("--variance", type=float, default=0.99, help="share of variance the PCA keeps (0.99)")
     le.add_argument("--capture-fps", type=float, default=60.0, help="frame rate of CSV timecodes (60)")
     le.add_argument("--fps", type=float, default=30.0, help="frame rate the model is fitted at (30)")
@@ -166,9 +166,7 @@ def main(argv: list[str] | None = None) -> int:
 def _learn(args) -> int:
     from . import learn
 
-    def progress(step, frac):
-        print(f"\r{step:>9} {100 * frac:5.1f} %", end="", file=sys.stderr, flush=True)
-
+    progress = learn.Console()      # a bar on a terminal, else a line per step
     try:
         if not (0.0 < args.holdout < 1.0):
             raise LipSyncError("--holdout must be between 0 and 1")
@@ -186,10 +184,11 @@ def _learn(args) -> int:
                              keep_learned=args.keep_learned)
         preset_path, report_path = result.save(args.out)
     except LipSyncError as exc:
-        print(f"\nerror: {exc}", file=sys.stderr)
+        progress.close()
+        print(f"error: {exc}", file=sys.stderr)
         return 1
+    progress.close()
     r = result.report
-    print(file=sys.stderr)
     print(learn.summary_text(r))
     print(f"wrote {preset_path} and {report_path}")
     return 0

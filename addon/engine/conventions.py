@@ -156,15 +156,18 @@ def _naming() -> list[re.Pattern]:
 
 
 class NameIndex:
-    """A mesh's shape-key names, findable by their canonical forms.
+    """Names that may be driven (a mesh's shape keys without its basis, a
+    capture's tracks), findable by their canonical forms.
 
     A name written exactly (up to case and separators) is found first; then
     the same name behind an exporter's prefix (``Wolf3D_Head.viseme_aa``,
-    ``A37_Mouth_Close``, the mesh's own name).
+    ``A37_Mouth_Close``, the mesh's own name).  Every name given is indexed:
+    the caller that holds a mesh's key blocks leaves out the basis
+    (:func:`detect`).
     """
 
-    def __init__(self, shape_keys: list[str], mesh_names: tuple[str, ...] = ()):
-        names = list(shape_keys[1:]) if shape_keys else []   # the basis is never driven
+    def __init__(self, names: list[str], mesh_names: tuple[str, ...] = ()):
+        names = list(names)
         self.exact: dict[str, str] = {}
         self.behind_prefix: dict[str, str] = {}
         patterns = _naming() + [re.compile(re.escape(m) + r"[\s._:|\-]+", re.IGNORECASE)
@@ -330,10 +333,12 @@ def detect(shape_keys: list[str], conventions: list[Convention], viseme_sets: di
            mesh_names: tuple[str, ...] = (), viseme_set: str | None = None) -> Match | None:
     """The convention the mesh follows (module docstring), or None.
 
-    ``viseme_set`` limits the choice to conventions of that set (the user
-    picked it); ``viseme_sets`` holds every set the conventions name.
+    ``shape_keys``: the mesh's key blocks in order, so the first is the basis
+    (Blender's reference key), which is never driven.  ``viseme_set``
+    limits the choice to conventions of that set (the user picked it);
+    ``viseme_sets`` holds every set the conventions name.
     """
-    index = NameIndex(shape_keys, mesh_names)
+    index = NameIndex(shape_keys[1:], mesh_names)
     best, best_score = None, None
     for order, conv in enumerate(conventions):
         if viseme_set is not None and conv.viseme_set != viseme_set:

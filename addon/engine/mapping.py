@@ -15,14 +15,15 @@ from . import conventions
 from .visemes import VisemeSet
 
 
-def auto_map(vset: VisemeSet, shape_keys: list[str]) -> dict[str, dict[str, float]]:
-    """Viseme -> {shape key: weight} by the set's own names, aliases and
-    mixes (capture channels, a studio's own set).  A mix keeps the keys the
-    mesh has; a viseme none of whose candidates exists is left out, so the
-    caller can list it as unmapped.  The basis key (the first one) is never
-    driven.  Real characters' naming conventions: :mod:`.conventions`."""
+def auto_map(vset: VisemeSet, names: list[str]) -> dict[str, dict[str, float]]:
+    """Viseme -> {name: weight} by the set's own names, aliases and mixes,
+    onto ``names``: capture channels, or a mesh's shape keys without its
+    basis (every name given may be driven, whatever its place).  A mix keeps
+    the names there are; a viseme none of whose candidates exists is left
+    out, so the caller can list it as unmapped.  Real characters' naming
+    conventions: :mod:`.conventions`."""
     conv = conventions.from_viseme_set(vset)
-    return conventions.match(conv, vset, conventions.NameIndex(shape_keys)).mapping
+    return conventions.match(conv, vset, conventions.NameIndex(names)).mapping
 
 
 def unmapped(vset: VisemeSet, mapping: dict[str, dict[str, float]]) -> list[str]:

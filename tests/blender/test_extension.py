@@ -464,8 +464,9 @@ def test_user_preset_saved_from_the_panel_drives_generation(scene):
 
 def test_learn_preset_from_the_mesh_animation(scene):
     """Ada's lines keyed with the angry preset stand in for hand-keyed
-    animation; the preset learned from them reproduces a held-out line
-    better than the built-in neutral preset it started from."""
+    animation; the preset learned from them is judged on held-out lines
+    against the built-in neutral preset it started from, which shows every
+    animated key with the mesh's own mapping."""
     for name, path, frame in (("Ada_a", BOB, 1), ("Ada_b", PIE, 80), ("Ada_c", SAMPLE, 160)):
         add_strip(scene, name, path, frame=frame)
     hello = _text("hello", SAMPLE)
@@ -481,11 +482,19 @@ def test_learn_preset_from_the_mesh_animation(scene):
     report = json.loads(open(path[:-5] + ".report.json").read())
     # Three strips: each is held out in turn and predicted by a preset learned from the other two.
     assert report["evaluation"] == "leave-one-clip-out" and len(report["per_clip"]) == 3
-    assert report["learned"]["heldout"]["rmse"] < report["builtin"]["heldout"]["rmse"]
-    s = report["summary"]
-    assert s["learned"]["correlation"] > s["start"]["correlation"] and report["kept"] == "learned"
     assert set(report["per_clip"][0]["tracks"]["MBP"]) == {"learned", "start"}
     assert "MBP" in report["channels"]
+    # The start shows every animated key, the first one too (the basis is not among them).
+    starts = {ch: t["start"]["correlation"] for ch, t in report["per_track"].items()}
+    assert min(c for c in starts.values() if c is not None) > 0.3, starts
+    assert report["summary"]["start"]["correlation"] > 0.95
+    # What the held-out strips support is learned; no key ends worse than the start.
+    assert report["learned"]["heldout"]["rmse"] < report["builtin"]["heldout"]["rmse"]
+    assert report["kept"] == "learned" and report["parts"]["learned"]
+    for ch, t in report["per_track"].items():
+        assert t["learned"]["rmse"] <= 1.005 * t["start"]["rmse"] + 0.0005, ch
+        if t["start"]["correlation"] is not None:
+            assert t["learned"]["correlation"] >= t["start"]["correlation"] - 0.01, ch
     assert scene.emotive_lipsync.emotion == "ada_angry"
     # The learned preset drives generation like any other.
     assert _generate(mesh="Ada", strip="Ada_a", emotion="ada_angry") == {"FINISHED"}

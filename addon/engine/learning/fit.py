@@ -16,8 +16,11 @@ the viseme's pose.  The predicted tracks are
 For shape keys M (visemes x channels) holds each viseme's pose, learned: as
 in the paper the poses live in a PCA basis of the training tracks, M = A P^T
 with P the components keeping ``variance`` (default 99 %) of the tracks'
-energy, and A is solved exactly at every step (variable projection); a
-viseme the clips never show keeps its starting pose outside that basis.  For
+energy, and A is solved exactly at every step (variable projection).  The
+poses written are then solved on every track with each value in [0, 1] and
+a pull toward the starting poses as strong as ``pose_prior`` s of the viseme
+shown in full (:func:`.model.bounded_poses`): the less the clips show a
+viseme, the nearer it stays to its starting pose.  For
 proxies and viseme tracks M is fixed (:func:`.proxies.poses`) and each track
 has a gain and an offset solved the same way, so the fit is judged on the
 shape and timing of the motion, not its units: the squared error left after
@@ -42,9 +45,11 @@ in turn and predicted by a preset fitted to the others (leave-one-clip-out);
 otherwise a share of the clips is held out, and training stops when their
 error has not fallen for ``patience`` steps.  The report gives, per track
 and per held-out clip, correlation, RMSE and peak-timing error for the
-learned preset and the starting one (:mod:`.report`).  The preset written is
-the learned one when it is better on the held-out clips in both mean
-correlation and RMSE, else the starting one, unless ``keep_learned``.
+learned preset and the starting one (:mod:`.report`).  The preset written
+takes from the fit only the parts (:mod:`.parts`: timing per group of
+phoneme classes, poses per articulator) that the held-out check over every
+fold supports without making any track worse (:mod:`.select`); the rest is
+the starting preset's.  ``keep_learned`` takes every part.
 """
 
 from __future__ import annotations
@@ -63,9 +68,10 @@ from .. import mapping, presets, visemes
 from ..errors import LipSyncError
 from ..language.phonemes import CLASSES
 from . import delay as delay_mod
-from . import proxies, report
+from . import parts as parts_mod
+from . import proxies, report, select
 from .data import Prepared, TrainingClip, prepare
-from .model import BOUNDS, PARAMS, REFERENCE_CLASS, Model, params_matrix, solve_poses
+from .model import BOUNDS, PARAMS, REFERENCE_CLASS, Model, bounded_poses, params_matrix, solve_poses
 
 MAX_FOLDS = 8
 
@@ -107,12 +113,15 @@ class Setup:
     fps: float
     calibrated: bool             # proxies / viseme tracks: fixed poses, gain and offset per track
     M0: np.ndarray               # (visemes, channels): fixed poses, or the prior of learned ones
+    start_map: dict | None       # shape keys: the starting poses, viseme -> {channel: weight}
     P0: np.ndarray               # (classes, 4) the starting parameters
     ridge: float
     variance: float
     regularisation: float
     closure_weight: float
     delay: float | None          # None: estimate it
+    gain0: float = 1.0           # the starting preset's gain (learned poses carry it: a learned preset's is 1)
+    pose_prior: float = 0.0      # frames: how strongly poses are pulled toward the start (model.bounded_poses)
 
 
 @dataclass
@@ -125,8 +134,9 @@ class Fit:
     stopped: str
     free: int
     targets: dict | None = None  # learned poses (shape keys)
+    M: np.ndarray | None = None  # the same, (visemes, channels)
     pca: dict | None = None
-    clipped: int = 0
+    clipped: int = 0             # pose values the [0, 1] range holds
 
 
 class _Objective:
@@ -152,7 +162,7 @@ class _Objective:
         else:
             Z = np.concatenate(self.ys)
             self.scale = 1.0 / np.sqrt(max(float(((Z - Z.mean(axis=0)) ** 2).sum()), 1e-12))
-            self.prior = setup.M0 @ basis
+            self.prior = setup.gain0 * setup.M0 @ basis
 
     def set_delay(self, d: float) -> None:
         """Read the measured tracks at delay ``d`` (and their slope in d)."""
@@ -340,14 +350,16 @@ def fit(setup: Setup, train: list[Prepared], valid: list[Prepared] | None = None
     out = Fit(Pm, float(d), d_score, history, best_it, stopped, len(free) + (0 if setup.calibrated else lin.size))
     out.pca = pca
     if not setup.calibrated:
-        # A viseme the clips do not show keeps its starting pose where the basis does not reach
-        # (the shape keys only it moves); one they show is learned there too (as still).
+        # The poses on every track, each value in the [0, 1] a shape key shows, pulled toward the
+        # starting poses as strongly as ``pose_prior`` frames of each viseme: a viseme the clips do not
+        # show keeps its starting pose, one they show for long follows them.
         bl, _ = obj.model.blend(Pm, False)
-        seen = sum((b ** 2).sum(axis=0) for b in bl)
-        shown = seen / (seen + 0.01 * max(float(seen.mean()), 1e-12))
-        M = lin @ basis.T + (1.0 - shown)[:, None] * (setup.M0 @ (np.eye(len(setup.channels)) - basis @ basis.T))
-        out.clipped = int(np.sum(np.abs(M) > 3.0))
-        M = np.clip(M, -3.0, 3.0)   # the range a preset allows; reported
+        ys = [c.aligned(d) for c in train]
+        prior = setup.gain0 * setup.M0
+        M = bounded_poses(bl, ys, prior, setup.pose_prior)
+        free_M = solve_poses(bl, ys, 1e-9, prior, setup.pose_prior)
+        out.clipped = int(np.sum((free_M < -1e-3) | (free_M > 1.0 + 1e-3)))
+        out.M = M
         targets = {}
         for i, v in enumerate(setup.vset.visemes):
             mix = {ch: round(float(M[i, j]), 4) for j, ch in enumerate(setup.channels) if abs(M[i, j]) >= 1e-3}
@@ -357,34 +369,82 @@ def fit(setup: Setup, train: list[Prepared], valid: list[Prepared] | None = None
     return out
 
 
-def make_preset(setup: Setup, f: Fit, name: str, n_clips: int) -> dict:
-    """The starting preset with the fitted dominance parameters (and poses)."""
+def make_preset(setup: Setup, f: Fit, name: str, n_clips: int, timing: dict | None = None,
+                poses=None) -> dict:
+    """The starting preset with the fitted parts: the dominance parameters
+    of the ``timing`` parts, each moved by its share from the start toward
+    the fit (:func:`.select.shift`), and the poses of the ``poses`` parts
+    (:mod:`.parts`; None: every part, all the way)."""
     out = copy.deepcopy(setup.base)
     out["name"] = name
-    out["description"] = (f"Learned from {n_clips} example clips ({setup.base.get('name', 'preset')} as the "
-                          f"base); see the training report")
+    P = f.Pm if timing is None else select.shift(setup.P0, f.Pm, timing)
     for k, c in enumerate(CLASSES):
         for p, pn in enumerate(PARAMS):
-            out["dominance"]["classes"][c][pn] = round(float(f.Pm[k, p]), 5)
-    if f.targets is not None:
+            out["dominance"]["classes"][c][pn] = round(float(P[k, p]), 5)
+    learned_poses = f.M is not None and (poses is None or len(poses) > 0)
+    if learned_poses:
+        M = f.M if poses is None else setup.gain0 * setup.M0
+        if poses is not None:
+            M = M.copy()
+            for part in poses:
+                M[:, list(part.cells)] = f.M[:, list(part.cells)]
+        M = np.clip(M, 0.0, 1.0)
+        targets = {}
+        for i, v in enumerate(setup.vset.visemes):
+            mix = {ch: round(float(M[i, j]), 4) for j, ch in enumerate(setup.channels) if abs(M[i, j]) >= 1e-3}
+            if mix:
+                targets[v] = mix
         out["gain"] = 1.0
-        out["learned"] = {"viseme_set": setup.vset.name, "targets": f.targets}
+        out["learned"] = {"viseme_set": setup.vset.name, "targets": targets}
+    what = "every part" if timing is None and poses is None else ", ".join(_learned_parts(timing, poses))
+    out["description"] = (f"Learned from {n_clips} example clips ({setup.base.get('name', 'preset')} as the "
+                          f"base): learned {what}; the rest kept from the base; see the training report")
     return presets.validate(out, name)
 
 
-def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "neutral", viseme_set: str = "arkit",
-          name: str = "learned", holdout: float = 0.2, variance: float = 0.99, fps: float = 30.0,
+def _learned_parts(timing: dict | None, poses) -> list[str]:
+    """The parts learned, in words: ``vowels onset/offset (50 %)``, ``jaw poses``."""
+    out = [p.name if t >= 1.0 else f"{p.name} ({100 * t:.0f} %)"
+           for p, t in sorted((timing or {}).items(), key=lambda x: x[0].name)]
+    return out + sorted(p.name for p in poses or ())
+
+
+def _start_map(vset, channels: list[str], given: dict | None) -> dict[str, dict[str, float]]:
+    """The starting poses on the tracks (see :func:`learn`)."""
+    if given is None:
+        return mapping.auto_map(vset, channels)
+    out = {}
+    for v, mix in given.items():
+        if v not in vset.visemes:
+            raise LipSyncError(f"the starting mapping names {v!r}, which is not a viseme of the {vset.name!r} set")
+        kept = {ch: float(w) for ch, w in mix.items() if ch in channels}
+        if kept:
+            out[v] = kept
+    return out
+
+
+def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "neutral",
+          viseme_set: str = "arkit", name: str = "learned", holdout: float = 0.2, variance: float = 0.99, fps: float = 30.0,
           max_iter: int = 60, patience: int = 5, seed: int = 0, ridge: float = 1e-3,
           heldout: list[int] | None = None, cross_validate: bool | None = None, max_folds: int = MAX_FOLDS,
           regularisation: float = 1e-5, closure_weight: float = 3.0, delay: float | None = None,
-          keep_learned: bool = False, progress: Callable[[str, float], None] | None = None) -> Learned:
+          keep_learned: bool = False, start_map: dict[str, dict[str, float]] | None = None, pose_prior: float = 0.02,
+          progress: Callable[[str, float], None] | None = None) -> Learned:
     """Fit a preset to ``clips`` (see the module docstring).
 
-    ``heldout`` picks the held-out clips by index; otherwise, with
-    ``max_folds`` clips or fewer (or ``cross_validate``), every clip is held
-    out in turn, else a ``holdout`` share of them is drawn with ``seed``.
+    ``start_map``: for shape-key tracks, the poses the starting preset
+    shows, viseme -> {track: weight} (a rig's own mapping; keys that are not
+    tracks are left out); by default the viseme set's own names and mixes
+    found among the tracks (:func:`..mapping.auto_map`), every track a
+    candidate whatever its column.  ``heldout`` picks the held-out clips by
+    index; otherwise, with ``max_folds`` clips or fewer (or
+    ``cross_validate``), every clip is held out in turn, else a ``holdout``
+    share of them is drawn with ``seed``.
     ``delay`` fixes the capture's delay to the sound (s) instead of
-    estimating it.
+    estimating it.  ``pose_prior`` (s): how strongly learned poses are
+    pulled toward the starting ones, as that much of a viseme shown in full.
+    ``keep_learned`` takes every part of the fit; otherwise the held-out
+    check picks them (:mod:`.select`).
     """
     def tell(step, frac):
         if progress:
@@ -410,13 +470,13 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "
         M0 = proxies.poses(vset, channels)
         base_mp = None
     else:
-        base_mp = mapping.auto_map(vset, channels)
+        base_mp = _start_map(vset, channels, start_map)
         M0 = np.zeros((len(vset.visemes), len(channels)))
         for v, mix in base_mp.items():
             for ch, w in mix.items():
                 M0[vset.index(v), channels.index(ch)] = w
-    setup = Setup(base, vset, channels, fps, calibrated, M0, params_matrix(base), ridge, variance,
-                  regularisation, closure_weight, delay)
+    setup = Setup(base, vset, channels, fps, calibrated, M0, base_mp, params_matrix(base), ridge, variance,
+                  regularisation, closure_weight, delay, float(base.get("gain", 1.0)), pose_prior * fps)
 
     if heldout is not None:
         hold_i = sorted(set(heldout))
@@ -439,31 +499,42 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "
 
     single = scheme == "held-out clips"
     n_fits = len(folds) + (0 if single else 1)
-    results = []
+    fits = []
     for n, (tr, ho) in enumerate(folds):
         train, hold = [prepared[i] for i in tr], [prepared[i] for i in ho]
         f = fit(setup, train, hold if single else None, max_iter=max_iter, patience=patience,
                 progress=lambda x, n=n: tell("fit", (n + x) / n_fits))
-        results.append((tr, ho, f, make_preset(setup, f, name, len(train))))
+        fits.append((tr, ho, f))
     if single:
-        tr, _ho, final, preset = results[0]
+        tr, _ho, final = fits[0]
     else:
         tr = list(range(len(clips)))
         final = fit(setup, prepared, None, max_iter=max_iter, patience=patience,
                     progress=lambda x: tell("fit", (len(folds) + x) / n_fits))
-        preset = make_preset(setup, final, name, len(clips))
 
     tell("evaluate", 0.0)
+    timing_all = parts_mod.timing_parts(_free(setup, [prepared[i] for i in tr])[0])
+    poses_all = [] if calibrated else parts_mod.pose_parts(channels)
+    if keep_learned:
+        timing, poses, found = {p: 1.0 for p in timing_all}, frozenset(poses_all), None
+    else:
+        timing, poses, found = select.Judge(setup, prepared, fits, timing_all, poses_all).choose()
+    results = [(tr_f, ho_f, f, make_preset(setup, f, name, len(tr_f), timing, poses)) for tr_f, ho_f, f in fits]
+    preset = make_preset(setup, final, name, len(tr), timing, poses)
     result = report.build(setup, prepared, results, final, preset, scheme, tr)
     result.update({"name": name, "base_preset": base.get("name")})
-    better = result["better_than_builtin"]
-    kept = "learned" if better or keep_learned else "start"
+    learned_parts = _learned_parts(timing, poses)
+    taken = {p.name for p in timing} | {p.name for p in poses}
+    result["parts"] = {"learned": learned_parts,
+                       "kept": sorted(p.name for p in timing_all + poses_all if p.name not in taken),
+                       "shares": {p.name: t for p, t in timing.items()}, "check": found}
+    kept = "learned" if learned_parts else "start"
     result["kept"] = kept
     if kept == "start":
         preset = copy.deepcopy(base)
         preset["name"] = name
-        preset["description"] = (f"The starting preset {base.get('name', '')!r}, kept: the preset learned from "
-                                 f"{len(tr)} clips was not better on the held-out clips (see the training report)")
+        preset["description"] = (f"The starting preset {base.get('name', '')!r}, kept: no part learned from "
+                                 f"{len(tr)} clips did better on the held-out clips (see the training report)")
         preset = presets.validate(preset, name)
     result["fit"]["seconds"] = round(time.perf_counter() - t_start, 3)
     tell("done", 1.0)

@@ -112,15 +112,57 @@ def _apply(C: np.ndarray, masks, values: bool) -> np.ndarray:
     return out
 
 
-def solve_poses(blends, zs, ridge, prior):
+def solve_poses(blends, zs, ridge, prior, frames: float = 0.0):
     """Poses A minimising sum ||C A - Z||^2 + lam ||A - prior||^2, with lam
-    ``ridge`` times the mean of diag(C^T C): a viseme the clips barely show
-    stays near the viseme set's own pose instead of fitting the noise."""
+    ``frames`` plus ``ridge`` times the mean of diag(C^T C): a viseme the
+    clips barely show stays near the starting pose instead of fitting the
+    noise (the pull is as strong as ``frames`` frames of the viseme shown
+    in full, so the less the clips show a viseme, the more it keeps)."""
     CtC = sum(C.T @ C for C in blends)
     CtZ = sum(C.T @ Z for C, Z in zip(blends, zs))
     n = CtC.shape[0]
-    lam = ridge * max(float(np.trace(CtC)) / n, 1e-12)
+    lam = frames + ridge * max(float(np.trace(CtC)) / n, 1e-12)
     return np.linalg.solve(CtC + lam * np.eye(n), CtZ + lam * prior)
+
+
+def bounded_poses(blends, ys, prior: np.ndarray, frames: float, lo: float = 0.0, hi: float = 1.0) -> np.ndarray:
+    """(visemes, tracks) poses minimising sum ||C M - Y||^2 + frames ||M - prior||^2
+    with every value in [lo, hi] (the range a rig's shape key shows).  The
+    problem is convex and separate per track: an active-set solve per
+    track (values past a bound are held there, a held value whose gradient
+    points inside is released), then coordinate-descent sweeps, which only
+    lower the cost, to finish."""
+    n = blends[0].shape[1]
+    lam = max(frames, 1e-9)
+    H = sum(C.T @ C for C in blends) + lam * np.eye(n)
+    B = sum(C.T @ Y for C, Y in zip(blends, ys)) + lam * np.asarray(prior, float)
+    M = np.empty_like(B)
+    for j in range(B.shape[1]):
+        b = B[:, j]
+        held = np.zeros(n, bool)
+        x = np.zeros(n)
+        for _ in range(4 * n):
+            f = ~held
+            x_f = np.linalg.solve(H[np.ix_(f, f)], b[f] - H[np.ix_(f, held)] @ x[held]) if f.any() else x[f]
+            out = (x_f < lo) | (x_f > hi)
+            x[f] = np.clip(x_f, lo, hi)
+            if out.any():
+                idx = np.flatnonzero(f)[out]
+                held[idx] = True
+                continue
+            g = H @ x - b                     # at lo the cost must rise going up, at hi going down
+            wrong = held & (((x <= lo) & (g < -1e-12)) | ((x >= hi) & (g > 1e-12)))
+            if not wrong.any():
+                break
+            held[np.flatnonzero(wrong)[np.argmax(np.abs(g[wrong]))]] = False
+        M[:, j] = x
+    for _ in range(50):
+        before = M.copy()
+        for v in range(n):
+            M[v] = np.clip((B[v] - H[v] @ M + H[v, v] * M[v]) / H[v, v], lo, hi)
+        if np.abs(M - before).max() < 1e-9:
+            break
+    return M
 
 
 def params_matrix(preset: Preset | dict) -> np.ndarray:

@@ -6,9 +6,11 @@ RMSE and peak-timing error (ms between each clear opening or closure of the
 measured track and the prediction's), for both presets.  The measured
 tracks are read at the capture's estimated delay; proxy and viseme tracks
 go through each preset's own calibration (gain and offset per track,
-fitted on the training clips).  The learned preset is better when, on the
-held-out clips, its mean correlation over tracks is higher AND its RMSE is
-lower; the report says so plainly either way.
+fitted on the training clips).  The learned preset is the one written: the
+parts of the fit the held-out check kept (:mod:`.select`), each fold's own.
+It is better when, on the held-out clips, its mean correlation over tracks
+is higher AND its RMSE is lower; the report says so plainly either way, and
+names the parts learned and kept.
 """
 
 from __future__ import annotations
@@ -30,10 +32,7 @@ def _predict(setup, preset: dict, clips, train, delay: float, cache: dict) -> li
         if learned:
             vs, mp = visemes.with_targets(setup.vset, learned["targets"]), learned["targets"]
         else:
-            vs, mp = setup.vset, None
-        if mp is None:
-            from .. import mapping
-            mp = mapping.auto_map(setup.vset, setup.channels)
+            vs, mp = setup.vset, setup.start_map
         return [synthesise(c, preset, vs, setup.channels, setup.fps, mp) for c in clips]
 
     def raw(c):
@@ -138,13 +137,15 @@ def table(report: dict, channels: list[str] | None = None) -> str:
     def f(v, fmt):
         return "   -  " if v is None else format(v, fmt)
 
-    lines = [f"{'clip':24} {'track':14} {'corr learned/start':>19} {'RMSE learned/start':>19} "
-             f"{'peak ms learned/start':>22}"]
     rows = [(pc["clip"], pc["tracks"]) for pc in report["per_clip"]] + [("mean", report["per_track"])]
+    cw = max(len("clip"), *(len(clip) for clip, _t in rows))      # names in full: no two tracks look alike
+    tw = max([len("track")] + [len(ch) for ch in chans])
+    lines = [f"{'clip':{cw}} {'track':{tw}} {'corr learned/start':>19} {'RMSE learned/start':>19} "
+             f"{'peak ms learned/start':>22}"]
     for clip, tracks in rows:
         for ch in chans:
             t = tracks[ch]
-            lines.append(f"{clip[:24]:24} {ch[:14]:14} {f(t['learned']['correlation'], '6.3f'):>9} "
+            lines.append(f"{clip:{cw}} {ch:{tw}} {f(t['learned']['correlation'], '6.3f'):>9} "
                          f"{f(t['start']['correlation'], '6.3f'):>9} {f(t['learned']['rmse'], '7.4f'):>9} "
                          f"{f(t['start']['rmse'], '7.4f'):>9} {f(t['learned']['peak_timing_ms'], '6.1f'):>10} "
                          f"{f(t['start']['peak_timing_ms'], '6.1f'):>10}")
@@ -170,9 +171,13 @@ def summary_text(report: dict) -> str:
         c = "-" if s["correlation"] is None else f"{s['correlation']:.3f}"
         lines.append(f"  {label:18} held out: correlation {c}, RMSE {s['rmse']:.4f}, peak timing {pt}")
     lines.append(r["verdict"] + ".")
+    parts = r.get("parts")
+    if parts:
+        lines.append(f"learned: {', '.join(parts['learned']) or 'nothing'}")
+        lines.append(f"kept from {r.get('base_preset')}: {', '.join(parts['kept']) or 'nothing'}")
     if r.get("kept") == "start":
-        lines.append(f"kept the starting preset {r.get('base_preset')!r} under the new name "
-                     "(--keep-learned writes the learned one)")
-    elif not r["better_than_builtin"]:
-        lines.append("wrote the learned preset anyway, as asked")
+        lines.append(f"kept the starting preset {r.get('base_preset')!r} under the new name: no part did better on "
+                     "the held-out clips (--keep-learned writes everything learned)")
+    elif parts and parts.get("check") is None:
+        lines.append("wrote every learned part, as asked")
     return "\n".join(lines)
