@@ -21,7 +21,7 @@ import argparse
 import time
 
 from common import ROOT
-from addon.engine import learn
+from addon.engine import learning
 
 import sys
 sys.path.insert(0, str(ROOT / "tests"))
@@ -51,11 +51,11 @@ def main() -> int:
     for d in args.delay_ms:
         clips = mismatch.clips(rates=(0.9, 1.15), delay=d / 1000.0)
         t0 = time.perf_counter()
-        result = learn.learn(clips, emotion=args.emotion, viseme_set="arkit", name="mismatch")
+        result = learning.learn(clips, emotion=args.emotion, viseme_set="arkit", name="mismatch")
         r = result.report
         print(f"== capture delay {d:.0f} ms: {len(clips)} clips, learned in {time.perf_counter() - t0:.1f} s; "
               f"delay found {r['delay_ms']:.1f} ms (error {r['delay_ms'] - d:+.1f} ms)")
-        print(learn.summary_text(r))
+        print(learning.summary_text(r))
         print(per_track_change(r))
         print()
     return 0

@@ -34,7 +34,7 @@ from common import ROOT, need_data
 sys.path.insert(0, str(ROOT / "tests"))
 import mismatch  # noqa: E402
 from addon.engine import audio as audio_mod  # noqa: E402
-from addon.engine import learn, pipeline, presets, visemes  # noqa: E402
+from addon.engine import learning, pipeline, presets, visemes  # noqa: E402
 from addon.engine.learning import proxies  # noqa: E402
 from addon.engine.learning.evaluate import track_scores  # noqa: E402
 from addon.engine.learning.model import viseme_curves  # noqa: E402
@@ -76,13 +76,13 @@ def clip_of(name, wav, text, phones, rng, delay):
     truth = SimpleNamespace(phones=phones)
     times, y = mismatch.capture(truth, snd.duration, delay=delay, rng=rng)
     al = pipeline.align_audio(snd, text)
-    return learn.TrainingClip(name, snd, al, times, y, list(mismatch.TRACKS))
+    return learning.TrainingClip(name, snd, al, times, y, list(mismatch.TRACKS))
 
 
 def scores(preset, base, train, held, vset, delay, fps=30.0):
     """Per track on ``held``: scores of ``preset``, calibrated on ``train``."""
     M0 = proxies.poses(vset, list(mismatch.TRACKS))
-    prep = [learn.prepare(c, vset, base, fps, list(mismatch.TRACKS)) for c in train + [held]]
+    prep = [learning.prepare(c, vset, base, fps, list(mismatch.TRACKS)) for c in train + [held]]
     raw = [viseme_curves(p, preset, vset, fps) @ M0 for p in prep]
     gain, offset = proxies.calibrate(raw[:-1], [p.aligned(delay) for p in prep[:-1]])
     y = prep[-1].aligned(delay)
@@ -109,7 +109,7 @@ def main() -> int:
         clips = [clip_of(n, w, t, p, rng, args.delay_ms / 1000) for n, w, t, p in sentences(spk, args.sentences)]
         for i, held in enumerate(clips):
             train = clips[:i] + clips[i + 1:]
-            result = learn.learn(train, emotion=args.emotion, viseme_set="arkit", name="bench",
+            result = learning.learn(train, emotion=args.emotion, viseme_set="arkit", name="bench",
                                  keep_learned=args.keep_learned)
             delay = result.report["delay_ms"] / 1000
             learned = scores(result.preset, base, train, held, vset, delay)

@@ -18,7 +18,7 @@ import numpy as np
 
 from common import ROOT
 from addon.engine import audio as audio_mod
-from addon.engine import learn, pipeline, presets, visemes
+from addon.engine import learning, pipeline, presets, visemes
 from addon.engine.learning import capture
 from addon.engine.alignment import align_audio
 from addon.engine.alignment import Alignment
@@ -63,14 +63,14 @@ def main():
         sub, sal = base[k % len(base)]
         gain = 0.8 + 0.1 * (k // len(base))       # louder or softer copies: other weights, same timing
         sub = audio_mod.Audio(sub.samples * gain, sub.rate)
-        probe = learn.TrainingClip("p", sub, sal, np.array([0.0, sub.duration]), np.zeros((2, 52)), CHANNELS)
-        prep = learn._prepare(probe, vs, truth, 60.0, CHANNELS)
-        y = learn.synthesise(prep, truth, truth_set, CHANNELS, 60.0, poses) + rng.normal(0, 0.01, (len(prep.times), 52))
-        clips.append(learn.TrainingClip(f"piece{k}", sub, sal, prep.times, y, CHANNELS))
+        probe = learning.TrainingClip("p", sub, sal, np.array([0.0, sub.duration]), np.zeros((2, 52)), CHANNELS)
+        prep = learning.prepare(probe, vs, truth, 60.0, CHANNELS)
+        y = learning.synthesise(prep, truth, truth_set, CHANNELS, 60.0, poses) + rng.normal(0, 0.01, (len(prep.times), 52))
+        clips.append(learning.TrainingClip(f"piece{k}", sub, sal, prep.times, y, CHANNELS))
         k += 1
     secs = sum(c.audio.duration for c in clips)
     t0 = time.perf_counter()
-    result = learn.learn(clips, emotion="neutral", viseme_set="arkit", name="bench")
+    result = learning.learn(clips, emotion="neutral", viseme_set="arkit", name="bench")
     fit = time.perf_counter() - t0
     r = result.report
     print(f"fit: {len(clips)} clips, {secs:.1f} s of audio ({secs / len(clips):.1f} s each), 52 channels: "

@@ -116,7 +116,7 @@ def clips(rates=(0.9, 1.15), delay: float = 0.045, seed: int = 3, names=None, **
     (``names``: of these sources only)."""
     from addon.engine import audio as audio_mod
     from addon.engine.alignment import align_audio
-    from addon.engine.learn import TrainingClip
+    from addon.engine.learning import TrainingClip
 
     rng = np.random.default_rng(seed)
     out = []

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from addon.engine import audio as audio_mod
-from addon.engine import learn, pipeline, presets, visemes
+from addon.engine import learning, pipeline, presets, visemes
 from addon.engine.learning import capture
 from addon.engine.alignment import align_audio
 from addon.engine.cli import main as cli_main
@@ -68,19 +68,19 @@ def examples():
         al = align_audio(snd, text)
         for f in (0.85, 1.0, 1.2):
             s2, a2 = (snd, al) if f == 1.0 else stretch(snd, al, f)
-            probe = learn.TrainingClip("probe", s2, a2, np.array([0.0, s2.duration]), np.zeros((2, len(CHANNELS))),
+            probe = learning.TrainingClip("probe", s2, a2, np.array([0.0, s2.duration]), np.zeros((2, len(CHANNELS))),
                                        CHANNELS)
-            prepared = learn._prepare(probe, vs, truth, 60.0, CHANNELS)
-            y = learn.synthesise(prepared, truth, truth_set, CHANNELS, 60.0, poses)
+            prepared = learning.prepare(probe, vs, truth, 60.0, CHANNELS)
+            y = learning.synthesise(prepared, truth, truth_set, CHANNELS, 60.0, poses)
             clean.append(y)
-            clips.append(learn.TrainingClip(f"{path.stem}@{f}", s2, a2, prepared.times,
+            clips.append(learning.TrainingClip(f"{path.stem}@{f}", s2, a2, prepared.times,
                                             y + rng.normal(0, SIGMA, y.shape), CHANNELS))
     return clips, truth
 
 
 def test_recovers_a_known_model(examples):
     clips, truth = examples
-    result = learn.learn(clips, emotion="neutral", viseme_set="arkit", name="b", heldout=[2, 5, 10], max_iter=40)
+    result = learning.learn(clips, emotion="neutral", viseme_set="arkit", name="b", heldout=[2, 5, 10], max_iter=40)
     r = result.report
     assert r["learned"]["heldout"]["rmse"] <= 1.5 * SIGMA
     assert r["learned"]["heldout"]["variance_explained"] > 0.95
@@ -103,7 +103,7 @@ def test_more_clips_lower_the_heldout_error(examples):
     for n in (2, 5, 10):
         chosen = pool[:n] + held
         sub = [clips[i] for i in chosen]
-        r = learn.learn(sub, emotion="neutral", viseme_set="arkit", heldout=[n, n + 1], max_iter=25).report
+        r = learning.learn(sub, emotion="neutral", viseme_set="arkit", heldout=[n, n + 1], max_iter=25).report
         errors.append(r["learned"]["heldout"]["rmse"])
         assert r["learned"]["heldout"]["rmse"] < r["builtin"]["heldout"]["rmse"]
     assert errors[0] > errors[1] > errors[2]
@@ -111,7 +111,7 @@ def test_more_clips_lower_the_heldout_error(examples):
 
 def test_learned_preset_plugs_into_generation(examples, tmp_path):
     clips, _ = examples
-    result = learn.learn(clips[:6], emotion="angry", viseme_set="arkit", name="angry_b", heldout=[5], max_iter=10)
+    result = learning.learn(clips[:6], emotion="angry", viseme_set="arkit", name="angry_b", heldout=[5], max_iter=10)
     preset_path, report_path = result.save(tmp_path / "angry_b.json")
     report = json.loads(report_path.read_text())
     assert report["clips"]["heldout"] == [clips[5].name] and report["base_preset"] == "angry"
@@ -143,9 +143,9 @@ def test_tracks_that_do_not_match_the_audio(examples):
     clips, _ = examples
     c = clips[0]
     with pytest.raises(LipSyncError, match="tracks cover"):
-        learn.TrainingClip("short", c.audio, c.alignment, c.times[:10], c.tracks[:10], CHANNELS)
+        learning.TrainingClip("short", c.audio, c.alignment, c.times[:10], c.tracks[:10], CHANNELS)
     with pytest.raises(LipSyncError, match="at least two clips"):
-        learn.learn(clips[:1])
+        learning.learn(clips[:1])
 
 
 # --- capture CSV ---------------------------------------------------------------------
@@ -216,7 +216,7 @@ def test_fit_model_is_the_engines_synthesis(examples):
     clips, truth = examples
     vs = visemes.load("arkit")
     for clip in (clips[4], clips[10]):   # fast bilabials; the line with a long pause
-        prepared = learn._prepare(clip, vs, truth, 60.0, CHANNELS)
+        prepared = learning.prepare(clip, vs, truth, 60.0, CHANNELS)
         model = Model([prepared], 60.0, truth["smoothing"], [], truth["closure"]["strength"])
         (blend,), _ = model.blend(params_matrix(truth), want_jac=False)
         engine = viseme_curves(prepared, truth, vs, 60.0)

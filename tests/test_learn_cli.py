@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from addon.engine import audio as audio_mod
-from addon.engine import learn, pipeline, presets, visemes
+from addon.engine import learning, pipeline, presets, visemes
 from addon.engine.cli import main as cli_main
 
 from conftest import FIXTURES, SAMPLE, write_wav
@@ -35,10 +35,10 @@ def takes():
         snd = audio_mod.load(path)
         text = path.with_suffix(".txt").read_text()
         al = pipeline.align_audio(snd, text)
-        probe = learn.TrainingClip("probe", snd, al, np.array([0.0, snd.duration]), np.zeros((2, len(CHANNELS))),
+        probe = learning.TrainingClip("probe", snd, al, np.array([0.0, snd.duration]), np.zeros((2, len(CHANNELS))),
                                    CHANNELS)
-        prepared = learn.prepare(probe, vs, actor, 60.0, CHANNELS)
-        y = learn.synthesise(prepared, actor, vs, CHANNELS, 60.0, poses)
+        prepared = learning.prepare(probe, vs, actor, 60.0, CHANNELS)
+        y = learning.synthesise(prepared, actor, vs, CHANNELS, 60.0, poses)
         out.append((path.stem, snd, text, prepared.times, y + rng.normal(0, 0.01, y.shape), al))
     return out
 
@@ -102,14 +102,14 @@ class _Terminal(io.StringIO):
 def test_progress_is_a_bar_on_a_terminal():
     """One bar over the whole run, as ``batch`` shows on a terminal."""
     tty = _Terminal()
-    with learn.Console(tty) as progress:
+    with learning.Console(tty) as progress:
         for step in ("align", "prepare", "fit", "evaluate", "done"):
             progress(step, 0.0)
             progress(step, 1.0)
     shown = tty.getvalue()
     assert "\r" in shown and "fit" in shown and "100%" in shown and "\n" not in shown
     log = io.StringIO()
-    with learn.Console(log) as progress:
+    with learning.Console(log) as progress:
         progress("fit", 0.2)
         progress("fit", 0.7)
     assert log.getvalue() == "fitting\n"
@@ -120,12 +120,12 @@ def test_a_rigs_own_mapping_is_the_start(takes):
     says which key shows each viseme): the starting preset shows its poses
     on them, in the fit and in the report."""
     own = {ch: f"Face.{ch.upper()}_shape" for ch in CHANNELS}
-    clips = [learn.TrainingClip(name, snd, al, times, y, [own[c] for c in CHANNELS])
+    clips = [learning.TrainingClip(name, snd, al, times, y, [own[c] for c in CHANNELS])
              for name, snd, _text, times, y, al in takes]
     rig = {v: {own[k]: w for k, w in mix.items() if k in own}
            for v, mix in visemes.load("arkit").shape_keys.items()}
-    blind = learn.learn(clips, viseme_set="arkit", max_iter=0).report
-    seen = learn.learn(clips, viseme_set="arkit", max_iter=0, start_map=rig).report
+    blind = learning.learn(clips, viseme_set="arkit", max_iter=0).report
+    seen = learning.learn(clips, viseme_set="arkit", max_iter=0, start_map=rig).report
     for ch in own.values():
         assert blind["per_track"][ch]["start"]["correlation"] == 0.0      # the set's names: none found
         assert seen["per_track"][ch]["start"]["correlation"] > 0.25, ch   # rounding barely moves in two lines
@@ -145,12 +145,12 @@ def test_what_the_data_cannot_improve_is_kept_what_it_can_is_learned(takes):
     rng = np.random.default_rng(4)
     clips = []
     for name, snd, _text, _times, _y, al in takes:
-        probe = learn.TrainingClip("probe", snd, al, np.array([0.0, snd.duration]), np.zeros((2, len(CHANNELS))),
+        probe = learning.TrainingClip("probe", snd, al, np.array([0.0, snd.duration]), np.zeros((2, len(CHANNELS))),
                                    CHANNELS)
-        prepared = learn.prepare(probe, vs, neutral, 60.0, CHANNELS)
-        y = learn.synthesise(prepared, neutral, visemes.with_targets(vs, actor), CHANNELS, 60.0, actor)
-        clips.append(learn.TrainingClip(name, snd, al, prepared.times, y + rng.normal(0, 0.01, y.shape), CHANNELS))
-    result = learn.learn(clips, emotion="neutral", viseme_set="arkit", name="jaw")
+        prepared = learning.prepare(probe, vs, neutral, 60.0, CHANNELS)
+        y = learning.synthesise(prepared, neutral, visemes.with_targets(vs, actor), CHANNELS, 60.0, actor)
+        clips.append(learning.TrainingClip(name, snd, al, prepared.times, y + rng.normal(0, 0.01, y.shape), CHANNELS))
+    result = learning.learn(clips, emotion="neutral", viseme_set="arkit", name="jaw")
     r = result.report
     assert "jaw poses" in r["parts"]["learned"] and "rounding poses" in r["parts"]["kept"], r["parts"]
     jaw = r["per_track"]["jawOpen"]

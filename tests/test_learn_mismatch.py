@@ -15,7 +15,7 @@ import json
 import numpy as np
 import pytest
 
-from addon.engine import learn, presets
+from addon.engine import learning, presets
 from addon.engine.learning import capture
 from addon.engine.cli import main as cli_main
 from addon.engine.errors import ImportFormatError
@@ -33,7 +33,7 @@ def captured():
 
 
 def test_learning_beats_the_start_on_unseen_clips(captured):
-    result = learn.learn(captured, emotion="neutral", viseme_set="arkit", name="capt")
+    result = learning.learn(captured, emotion="neutral", viseme_set="arkit", name="capt")
     r = result.report
     assert r["evaluation"] == "leave-one-clip-out" and len(r["per_clip"]) == len(captured)
     assert r["tracks"].startswith("proxies")
@@ -55,11 +55,11 @@ def test_the_start_is_kept_unless_told(captured):
     """No fitting (no iterations): the learned preset is the start, so it is
     not better, and ``learn`` says so and keeps the start."""
     clips = captured[:3]
-    r = learn.learn(clips, emotion="sad", viseme_set="arkit", name="same", max_iter=0)
+    r = learning.learn(clips, emotion="sad", viseme_set="arkit", name="same", max_iter=0)
     assert not r.report["better_than_builtin"] and r.report["kept"] == "start"
     assert "NOT better" in r.report["verdict"]
     assert r.preset["name"] == "same" and r.preset["dominance"] == presets.read("sad")["dominance"]
-    forced = learn.learn(clips, emotion="sad", viseme_set="arkit", name="same", max_iter=0, keep_learned=True)
+    forced = learning.learn(clips, emotion="sad", viseme_set="arkit", name="same", max_iter=0, keep_learned=True)
     assert forced.report["kept"] == "learned"
 
 

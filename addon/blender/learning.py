@@ -1,5 +1,5 @@
 """"Learn Preset from This Animation": the mesh's shape-key animation over
-its sound strips becomes training data for :mod:`..engine.learn`.
+its sound strips becomes training data for :mod:`..engine.learning`.
 
 The Blender data is read on the main thread; aligning and fitting are a
 :class:`.jobs.Job`, run in a background thread when the operator is invoked
@@ -15,7 +15,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, FloatProperty, StringProperty
 
-from ..engine import learn, presets
+from ..engine import learning, presets
 from ..engine.errors import LipSyncError
 from ..engine.alignment import align_audio
 from . import compat, jobs, run, sources, userdata
@@ -76,7 +76,7 @@ def start_mapping(obj) -> tuple[str, dict[str, dict[str, float]]]:
 
 
 def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progress=None,
-         keep_learned: bool = False, start_map: dict | None = None) -> learn.Learned:
+         keep_learned: bool = False, start_map: dict | None = None) -> learning.Learned:
     """Align and fit (no Blender data touched: safe in a thread).
     ``start_map``: the mesh's mapping (:func:`start_mapping`); None: the
     viseme set's own names."""
@@ -85,12 +85,12 @@ def work(data, viseme_set: str, emotion: str, name: str, holdout: float, progres
         if progress:
             progress("align", k / len(data))
         al = align_audio(audio, text)
-        clips.append(learn.TrainingClip(label, audio, al, times, values, names))
-    return learn.learn(clips, emotion=emotion, viseme_set=viseme_set, name=name, holdout=holdout,
+        clips.append(learning.TrainingClip(label, audio, al, times, values, names))
+    return learning.learn(clips, emotion=emotion, viseme_set=viseme_set, name=name, holdout=holdout,
                        progress=progress, keep_learned=keep_learned, start_map=start_map)
 
 
-def summary(result: learn.Learned, path: str) -> tuple[str, str]:
+def summary(result: learning.Learned, path: str) -> tuple[str, str]:
     """The comparison with the starting preset on the held-out strips, in
     one line (the full table is in the report beside the preset)."""
     r = result.report
@@ -116,7 +116,7 @@ def summary(result: learn.Learned, path: str) -> tuple[str, str]:
 
 
 #: Where each step of :func:`work` lies in the whole: (start, share).
-PHASES = learn.PHASES
+PHASES = learning.PHASES
 
 
 def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: float,
@@ -125,10 +125,10 @@ def learn_job(scene, viseme_set: str, data, emotion: str, name: str, holdout: fl
     loaded into the scene's panel when it is done."""
     scene_name = scene.name
 
-    def finish(result: learn.Learned) -> tuple[str, str]:
+    def finish(result: learning.Learned) -> tuple[str, str]:
         path = os.path.join(userdata.folder(create=True), name + ".json")
         result.save(path)
-        print(learn.summary_text(result.report))
+        print(learning.summary_text(result.report))
         target = bpy.data.scenes.get(scene_name)
         if target is not None:
             target.emotive_lipsync.load_preset(result.preset, name)

@@ -164,9 +164,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _learn(args) -> int:
-    from . import learn
+    from . import learning
 
-    progress = learn.Console()      # a bar on a terminal, else a line per step
+    progress = learning.Console()      # a bar on a terminal, else a line per step
     try:
         if not (0.0 < args.holdout < 1.0):
             raise LipSyncError("--holdout must be between 0 and 1")
@@ -176,10 +176,10 @@ def _learn(args) -> int:
         clips = []
         for k, path in enumerate(args.audio):
             progress("align", k / len(args.audio))
-            clips.append(learn.load_clip(path, capture_fps=args.capture_fps, dictionary=args.dictionary,
+            clips.append(learning.load_clip(path, capture_fps=args.capture_fps, dictionary=args.dictionary,
                                          track_map=track_map))
         name = args.name or Path(args.out).stem
-        result = learn.learn(clips, emotion=args.emotion, viseme_set=args.viseme_set, name=name,
+        result = learning.learn(clips, emotion=args.emotion, viseme_set=args.viseme_set, name=name,
                              holdout=args.holdout, variance=args.variance, fps=args.fps, progress=progress,
                              keep_learned=args.keep_learned)
         preset_path, report_path = result.save(args.out)
@@ -189,7 +189,7 @@ def _learn(args) -> int:
         return 1
     progress.close()
     r = result.report
-    print(learn.summary_text(r))
+    print(learning.summary_text(r))
     print(f"wrote {preset_path} and {report_path}")
     return 0
 

@@ -8,5 +8,16 @@ synthesis path), :mod:`.delay` (the capture's delay to the sound),
 :mod:`.select` (which parts of the fit the held-out clips support),
 :mod:`.evaluate` (scores of predicted against measured tracks),
 :mod:`.report` (the comparison with the starting preset) and
-:mod:`.progress` (how far it has got).
+:mod:`.progress` (how far it has got).  The names below are what the
+command line, the Blender add-on and the benchmarks use.
 """
+
+from .data import Prepared, TrainingClip, load_clip, prepare
+from .evaluate import rmse_report
+from .fit import Learned, learn, split_holdout
+from .model import BOUNDS, PARAMS, REFERENCE_CLASS, synthesise
+from .progress import PHASES, Console
+from .report import summary_text, table
+
+__all__ = ["BOUNDS", "Console", "PARAMS", "PHASES", "REFERENCE_CLASS", "Learned", "Prepared", "TrainingClip",
+           "learn", "load_clip", "prepare", "rmse_report", "split_holdout", "summary_text", "synthesise", "table"]
