@@ -132,6 +132,7 @@ def unit_curves(strengths: dict[str, float], times: np.ndarray, phones: list[tup
             value = value + lift
         value = gaussian(np.clip(value * env, 0.0, 1.0), sigma)
         value = value * (1.0 - units()[unit]["closure_yield"] * closure)
+        value[value < 1e-3] = 0.0      # the smoothing's far tails: still is exactly still
         out[unit] = np.clip(value, 0.0, 1.0)
     return out
 
