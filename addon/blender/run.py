@@ -337,11 +337,14 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     result, clip = analysis.result, plan.clip
     names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
     face = _expression_keys(obj, plan, result, names, len(values))
-    names, values = expression.combine(names, values, face["names"], face["values"])
-    # Lower-face expression keys give way on /p b m/ as the rig's closure rule says.
-    closing = {**plan.mapping, **{f"expression {u}": mix for u, mix in plan.expression.mapping.items()
-                                  if expression.lower_face(u) and u in face["units"]}}
-    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, closing)
+    ex_values = face["values"]
+    if plan.closure.relax == "others":
+        # The basis shows closed lips: the mouth's expression keys open on /p b m/ only as far as it does.
+        lower = {k for u, mix in plan.expression.mapping.items() if expression.lower_face(u) for k in mix}
+        ex_values = expression.give_way(face["names"], ex_values, lower, result.times,
+                                        [(p.phone, p.start, p.end) for p in result.alignment.phones])
+    names, values = expression.combine(names, values, face["names"], ex_values)
+    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "

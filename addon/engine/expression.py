@@ -104,14 +104,26 @@ def accents(times: np.ndarray, phones: list[tuple[str, float, float]], pitch: np
     return out
 
 
+def closing(times: np.ndarray, phones: list[tuple[str, float, float]]) -> np.ndarray:
+    """Per frame, how much the lower face must give way to closed lips: 1
+    over every /p b m/ from its first instant to its last (as the speech's
+    other visemes are suppressed there), falling to 0 over ``closure_ramp``
+    seconds either side."""
+    ramp = dynamics()["closure_ramp"]
+    out = np.zeros(len(times))
+    for ph, s, e in phones:
+        if phone_class(ph) == "bilabial":
+            distance = np.maximum(np.maximum(s - times, times - e), 0.0)
+            np.maximum(out, 1.0 - np.minimum(distance / ramp, 1.0), out=out)
+    return out
+
+
 def unit_curves(strengths: dict[str, float], times: np.ndarray, phones: list[tuple[str, float, float]],
-                pitch: np.ndarray, closure: np.ndarray, fps: float, arousal: np.ndarray | None = None
-                ) -> dict[str, np.ndarray]:
+                pitch: np.ndarray, fps: float, arousal: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Per action unit, its value on every frame, in [0, 1] (module
     docstring).  ``strengths`` is a preset's ``expression``; ``pitch`` is
-    per phoneme (Hz, NaN unvoiced); ``closure`` per frame (1 while the lips
-    must be closed); ``arousal`` per frame, -1 to 1 (None: the voice is not
-    followed).  A preset with no units gives none."""
+    per phoneme (Hz, NaN unvoiced); ``arousal`` per frame, -1 to 1 (None:
+    the voice is not followed).  A preset with no units gives none."""
     strengths = {u: float(s) for u, s in strengths.items() if s > 0}
     if not strengths:
         return {}
@@ -122,7 +134,7 @@ def unit_curves(strengths: dict[str, float], times: np.ndarray, phones: list[tup
     if arousal is not None:
         gain = np.clip(1.0 + d["follow_voice"] * np.asarray(arousal, dtype=float), 0.0, 2.0)
     lift = d["accent_brows"] * max(strengths.values()) * accents(times, phones, pitch)
-    closure = np.clip(np.asarray(closure, dtype=float), 0.0, 1.0)
+    closure = closing(times, phones)
     sigma = d["smoothing"] * fps
     out = {}
     raised = set(BROW_RAISERS) if lift.any() else set()
@@ -163,6 +175,19 @@ def key_curves(curves: dict[str, np.ndarray], mapping: dict[str, dict[str, float
         for k, w in mapping.get(unit, {}).items():
             out[:, keys.index(k)] += w * np.asarray(value, dtype=float)[:frames]
     return keys, np.clip(out, 0.0, 1.0)
+
+
+def give_way(names: list[str], values: np.ndarray, lower: set[str], times: np.ndarray,
+             phones: list[tuple[str, float, float]]) -> np.ndarray:
+    """``values`` (frames, keys) with the keys in ``lower`` scaled by
+    1 - :func:`closing`: on a rig whose basis shows closed lips (VRoid,
+    viseme rigs) a mouth expression shape, whatever else it does, must not
+    hold the lips apart on /p b m/."""
+    values = np.array(values, dtype=float, copy=True)
+    cols = [j for j, k in enumerate(names) if k in lower]
+    if cols and len(values):
+        values[:, cols] *= (1.0 - closing(np.asarray(times, dtype=float), phones))[:, None]
+    return values
 
 
 def combine(names: list[str], values: np.ndarray, ex_names: list[str], ex_values: np.ndarray

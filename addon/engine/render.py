@@ -151,7 +151,7 @@ def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Ch
     spans = [(p.start, p.end) for p in al.phones]
     phones = [(p.phone, p.start, p.end) for p in al.phones]
     results, faces = [], []
-    closure, voice = None, None
+    voice = None
     for p in plist:
         if changes and viseme_set_for(p, viseme_set).name != vset.name:
             raise LipSyncError(f"preset {p.name!r} uses the {viseme_set_for(p, viseme_set).name!r} "
@@ -159,10 +159,9 @@ def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Ch
         stats, pitch, inten = prosody.for_preset(tracks, spans, p.weights)
         follow = estimate.at(centres) if estimate is not None and p.weights.follow_voice > 0 else None
         w, times, out = curves(al, pitch, inten, stats, vset, p, model, fps, arousal=follow)
-        if p.expression and closure is None:
-            closure = coarticulation.closure_track(times, phones)
-            voice = estimate.at(times) if estimate is not None else None
-        faces.append(expression.unit_curves(p.expression, times, phones, pitch, closure, fps, voice)
+        if p.expression and voice is None and estimate is not None:
+            voice = estimate.at(times)
+        faces.append(expression.unit_curves(p.expression, times, phones, pitch, fps, voice)
                      if p.expression else {})
         results.append(Rendered(pitch, inten, w, times, out, stats, faces[-1]))
     first = results[0]
