@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from addon.engine import conventions, expression, mapping, pipeline, presets, visemes
+from addon.engine import conventions, expression, learn, mapping, pipeline, presets, visemes
 from addon.engine.errors import PresetError
 from addon.engine.language import phone_class
 from voice_synth import voice
@@ -220,3 +220,48 @@ def test_a_bad_expression_section_is_named(tmp_path):
     doc["expression"] = {"AU1": [{"Fcl_BRW_Sorrow": -1}]}
     with pytest.raises(PresetError, match=r"mine.json.*expression\.AU1"):
         conventions.from_dict(doc, "mine.json")
+
+
+def _capture(strengths, rest=0.05, seed=0):
+    """An ARKit capture of a line whose face shows ``strengths``: the
+    expression channels follow the units' curves (without the voice) on a
+    resting value, with noise; the mouth's speech channels are noise."""
+    snd, al = voice(0.5, syllables=("AA", "IY", "UW", "EH", "AA", "IY"), seed=seed)
+    times = np.arange(0, al.duration, 1 / FPS)
+    phones = [(p.phone, p.start, p.end) for p in al.phones]
+    pitch = np.full(len(phones), np.nan)
+    curves = expression.unit_curves(strengths, times, phones, pitch, FPS)
+    face = conventions.expression_match(["Basis"] + list(ARKIT_52), conventions.load_all())
+    rng = np.random.default_rng(seed)
+    y = rest + rng.normal(0, 0.01, (len(times), len(ARKIT_52)))
+    for u, v in curves.items():
+        for k in face.mapping[u]:
+            y[:, ARKIT_52.index(k)] += v
+    return times, np.clip(y, 0, 1), phones, pitch, snd, al
+
+
+def test_the_expression_is_fitted_from_a_capture():
+    truth = {"AU1": 0.5, "AU4": 0.3, "AU12": 0.7}
+    clips = [_capture(truth, seed=s)[:4] for s in range(3)]
+    fitted = expression.fit(clips, list(ARKIT_52), FPS)
+    assert set(fitted) == set(expression.units())          # an ARKit capture shows every unit
+    for u, f in fitted.items():
+        assert f["strength"] == pytest.approx(truth.get(u, 0.0), abs=0.04), u
+    assert fitted["AU12"]["channels"] == ["mouthSmileLeft", "mouthSmileRight"]
+    # A capture of the mouth alone (Oculus visemes) shows no unit.
+    mouth = [f"viseme_{v}" for v in visemes.load("oculus").visemes]
+    assert expression.fit([(t, np.zeros((len(t), len(mouth))), ph, pi) for t, _y, ph, pi in clips], mouth, FPS) == {}
+
+
+def test_a_learned_preset_carries_the_captured_expression():
+    truth = {"AU6": 0.4, "AU12": 0.6}
+    clips = []
+    for seed in range(2):
+        times, y, _ph, _pi, snd, al = _capture(truth, seed=seed)
+        clips.append(learn.TrainingClip(f"c{seed}", snd, al, times, y, list(ARKIT_52)))
+    result = learn.learn(clips, emotion="sad", viseme_set="arkit", name="smiley", max_iter=3, keep_learned=True,
+                         delay=0.0)
+    got = result.preset["expression"]
+    assert set(got) == {"AU6", "AU12"}, got       # sad's own brows and frown are not in the capture
+    assert got["AU6"] == pytest.approx(0.4, abs=0.05) and got["AU12"] == pytest.approx(0.6, abs=0.05)
+    assert result.report["expression"]["AU12"]["channels"] == ["mouthSmileLeft", "mouthSmileRight"]

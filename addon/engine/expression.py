@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import conventions
 from .datafile import read_object
 from .language import phone_class
 from .smoothing import gaussian
@@ -209,3 +210,30 @@ def combine(names: list[str], values: np.ndarray, ex_names: list[str], ex_values
     if extra:
         values = np.hstack([values.reshape(len(ex_values), -1), ex_values[:, cols]])
     return names + extra, np.clip(values, 0.0, 1.0)
+
+
+def fit(clips, channels: list[str], fps: float, floor: float = 0.05) -> dict[str, dict]:
+    """Each action unit's strength as a capture shows it (an ARKit capture
+    carries the brows, cheeks and eyes): per unit, the channels the naming
+    conventions name for it, averaged by their weights, less their value
+    at rest (where the unit's curve is 0, outside the line), fitted by least
+    squares to the unit's curve at strength 1 (:func:`unit_curves`, without
+    the voice).  ``clips`` holds (frame times, (frames, channels) values,
+    phones as (phone, start, end), pitch per phone).  Returns {unit:
+    {"strength": 0-1, "channels": [...]}} for the units the channels show;
+    a strength below ``floor`` is 0.  No expression channel: {}."""
+    face = conventions.expression_match([""] + list(channels), conventions.load_all())
+    out = {}
+    for unit, mix in face.mapping.items():
+        cols = [channels.index(k) for k in mix]
+        w = np.array([mix[k] for k in mix]) / sum(mix.values())
+        num = den = 0.0
+        for times, y, phones, pitch in clips:
+            model = unit_curves({unit: 1.0}, times, phones, pitch, fps)[unit]
+            c = np.asarray(y, dtype=float)[:, cols] @ w
+            rest = float(np.median(c[model == 0])) if (model == 0).any() else 0.0
+            num += float((c - rest) @ model)
+            den += float(model @ model)
+        strength = min(max(num / den, 0.0), 1.0) if den > 0 else 0.0
+        out[unit] = {"strength": round(strength, 3) if strength >= floor else 0.0, "channels": list(mix)}
+    return out
