@@ -336,6 +336,7 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
     names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
+    speech = list(names)
     face = _expression_keys(obj, plan, result, names, len(values))
     ex_values = face["values"]
     if plan.closure.relax == "others":
@@ -358,6 +359,8 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
         other = bpy.data.objects.get(name)
         have = set(check_mesh(other)) if other is not None and other.type == "MESH" and \
             other.data.shape_keys is not None else set()
+        if have:   # the companion's own animation on an expression key wins there too
+            have -= set(keying.user_animated(other, sorted(have & set(face["names"]) - set(speech))))
         cols = [j for j, k in enumerate(names) if k in have]
         if cols:   # a companion deleted or changed meanwhile is simply left alone
             keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
