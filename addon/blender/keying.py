@@ -191,6 +191,50 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
             "first_frame": first_frame, "last_frame": last, "shape_keys": len(shape_keys)}
 
 
+def user_animated(obj, shape_keys: list[str]) -> list[str]:
+    """Of ``shape_keys``, those the user animates: a driver, or keys lip
+    sync did not write (outside every range it recorded for that key).
+    The expression layer leaves them alone."""
+    key = obj.data.shape_keys
+    rec = _record(key)
+    drivers = key.animation_data.drivers if key.animation_data is not None else None
+    out = []
+    for name in shape_keys:
+        path = data_path(name)
+        if drivers is not None and drivers.find(path) is not None:
+            out.append(name)
+            continue
+        fc = compat.find_fcurve(key, path)
+        if fc is None or not len(fc.keyframe_points):
+            continue
+        f = _get(fc.keyframe_points, "co", 2, np.float64)[:, 0]
+        ours = np.zeros(len(f), dtype=bool)
+        for first, last in rec["ranges"].get(name, []):
+            ours |= (f >= first - _EPS) & (f <= last + _EPS)
+        if not ours.all():
+            out.append(name)
+    return out
+
+
+def forget(obj, shape_keys: list[str], first: int, last: int) -> int:
+    """Remove lip sync's keys in [first, last] from ``shape_keys`` (a new run
+    that no longer drives them: an expression the new preset lacks); keys
+    lip sync never wrote there are left.  Returns how many were removed."""
+    key = obj.data.shape_keys
+    rec = _record(key)
+    removed = 0
+    for name in shape_keys:
+        spans = rec["ranges"].get(name, [])
+        fc = compat.find_fcurve(key, data_path(name))
+        if fc is None:
+            continue
+        for a, b in spans:
+            lo, hi = max(a, first), min(b, last)
+            if lo <= hi:
+                removed += replace_range(fc, lo, hi)
+    return removed
+
+
 def clear(obj) -> dict:
     """Remove the keys the add-on wrote on ``obj``.  F-curves it created and
     that hold nothing else go too; the user's keys stay."""

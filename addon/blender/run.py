@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from ..engine import conventions, pipeline, visemes
+from ..engine import conventions, expression, pipeline, visemes
 from ..engine.output import Result
 from ..engine.presets import Preset
 from ..engine.render import viseme_set_for
@@ -79,13 +79,24 @@ class Summary:
     timings: dict = field(default_factory=dict)
     also: list[str] = field(default_factory=list)   # the character's other meshes keyed with it
     warnings: list[str] = field(default_factory=list)  # the engine's (words of the transcript left out ...)
+    expression: list[str] = field(default_factory=list)     # action units keyed
+    expression_keys: list[str] = field(default_factory=list)   # the shape keys they drove
+    no_key: list[str] = field(default_factory=list)          # the preset's units the mesh has no key for
+    kept: list[str] = field(default_factory=list)            # expression keys left to the user's animation
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
         again = " (replacing the previous lip sync)" if self.replaced else ""
         also = f" (and on {', '.join(self.also)})" if self.also else ""
+        face = ""
+        if self.expression:
+            face += f"; expression {', '.join(self.expression)} on {len(self.expression_keys)} shape keys"
+        if self.no_key:
+            face += f"; no shape key shows {', '.join(self.no_key)} (left out)"
+        if self.kept:
+            face += f"; kept your animation on {', '.join(self.kept)} (not keyed)"
         return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys{also}, "
-                f"frames {self.first_frame}-{self.last_frame}{again}{est}, in {self.seconds:.1f} s"
+                f"frames {self.first_frame}-{self.last_frame}{again}{est}{face}, in {self.seconds:.1f} s"
                 + "".join(f"; warning: {w}" for w in self.warnings))
 
 
@@ -265,6 +276,8 @@ class Plan:
     also: list[str] = field(default_factory=list)   # companion meshes to key too
     emotions: list = field(default_factory=list)     # (s, preset) from emotion: timeline markers
     find_preset: object = None                       # resolves inline emotion tags
+    #: The mesh's keys for the expression's action units (empty: the mesh has none).
+    expression: conventions.ExpressionMatch = field(default_factory=lambda: conventions.ExpressionMatch({}))
 
 
 @dataclass
@@ -293,12 +306,15 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
-    driven = {k for mix in mp.values() for k in mix} | set(closure.relative)
+    face = conventions.expression_match(check_mesh(obj), all_conventions(), (obj.name, obj.data.name),
+                                        prefer=obj.emotive_lipsync.convention)
+    driven = {k for mix in mp.values() for k in mix} | set(closure.relative) | \
+        {k for mix in face.mapping.values() for k in mix}
     also = [o.name for o in companions(obj, driven)] if options.whole_character else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
     return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
-                emotions=marks, find_preset=find)
+                emotions=marks, find_preset=find, expression=face)
 
 
 def analyze(plan: Plan, progress=None) -> Analysis:
@@ -320,17 +336,31 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
     names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
+    speech = list(names)
+    face = _expression_keys(obj, plan, result, names, len(values))
+    ex_values = face["values"]
+    if plan.closure.relax == "others":
+        # The basis shows closed lips: the mouth's expression keys open on /p b m/ only as far as it does.
+        lower = {k for u, mix in plan.expression.mapping.items() if expression.lower_face(u) for k in mix}
+        ex_values = expression.give_way(face["names"], ex_values, lower, result.times,
+                                        [(p.phone, p.start, p.end) for p in result.alignment.phones])
+    names, values = expression.combine(names, values, face["names"], ex_values)
     names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
                            "nothing was keyed")
+    last = clip.first_frame + len(values) - 1
+    stale = sorted({k for mix in plan.expression.mapping.values() for k in mix} - set(names) - set(face["kept"]))
+    keying.forget(obj, stale, clip.first_frame, last)
     counts = keying.write(obj, names, values, clip.first_frame, plan.options.tolerance, clip.label)
     also = []
     for name in plan.also:
         other = bpy.data.objects.get(name)
         have = set(check_mesh(other)) if other is not None and other.type == "MESH" and \
             other.data.shape_keys is not None else set()
+        if have:   # the companion's own animation on an expression key wins there too
+            have -= set(keying.user_animated(other, sorted(have & set(face["names"]) - set(speech))))
         cols = [j for j, k in enumerate(names) if k in have]
         if cols:   # a companion deleted or changed meanwhile is simply left alone
             keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
@@ -345,7 +375,23 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     words = result.alignment.words
     return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
                    len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
-                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings))
+                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings),
+                   face["units"], face["names"], face["no_key"], face["kept"])
+
+
+def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames: int) -> dict:
+    """The expression's shape-key curves on ``obj``: its units on the keys the
+    mesh has for them, without the keys the user animates (the user's
+    animation wins; keys speech also drives are speech's and keyed as
+    before).  Also which units had no key and which keys were left."""
+    mapping = plan.expression.mapping
+    units = [u for u in result.expression if u in mapping]
+    no_key = [u for u in result.expression if u not in mapping]
+    names, values = expression.key_curves({u: result.expression[u] for u in units}, mapping, frames)
+    kept = keying.user_animated(obj, [k for k in names if k not in speech])
+    cols = [j for j, k in enumerate(names) if k not in kept]
+    return {"names": [names[j] for j in cols], "values": values[:, cols], "units": units, "no_key": no_key,
+            "kept": kept}
 
 
 def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:

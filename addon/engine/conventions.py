@@ -43,6 +43,13 @@ shape-key curves by :func:`apply_closure` with the engine's closure track
   jaw*: lips meet when it equals ``jawOpen``, and above ``jawOpen`` they
   pass through each other, so it is driven as closure x ``jawOpen``.
 
+A convention may also say which keys show the facial expression: an
+``expression`` section maps FACS action units (``data/expression.json``) to
+alternative mixes the same way, ``{"AU12": [{"mouthSmileLeft": 1,
+"mouthSmileRight": 1}]}``.  :func:`expression_match` maps a mesh's keys by
+whichever convention shows most of the units (a Ready Player Me avatar
+speaks with its Oculus visemes and frowns with its ARKit blendshapes).
+
 :func:`detect` picks the convention a mesh follows: the one that maps most of
 its viseme set, then, among complete ones, one made for speech over ARKit's
 facial-expression blendshapes (a Ready Player Me avatar carries both, and its
@@ -66,6 +73,7 @@ from .visemes import VisemeSet
 
 DATA = Path(__file__).parent / "data" / "conventions"
 NAMING = Path(__file__).parent / "data" / "naming.json"
+EXPRESSION = Path(__file__).parent / "data" / "expression.json"
 
 #: Where a studio keeps its own convention files (``os.pathsep``-separated);
 #: the Blender add-on adds its user folder.
@@ -116,6 +124,7 @@ class Convention:
     closure: Closure = field(default_factory=Closure)
     description: str = ""
     source: str = ""
+    expression: dict[str, list[dict[str, float]]] = field(default_factory=dict)   # FACS unit -> mixes
 
 
 @dataclass
@@ -270,7 +279,23 @@ def from_dict(doc: dict, source: str = "convention") -> Convention:
         raise PresetError(source, "prefixes", "must be a list of strings")
     return Convention(doc["name"], doc.get("label", doc["name"]), vset.name, mixes, bool(doc.get("speech", True)),
                       prefixes or [""], Closure(viseme, relax, dict(relative)), doc.get("description", ""),
-                      source)
+                      source, _expression_section(doc.get("expression", {}), source))
+
+
+def _expression_section(table, source: str) -> dict[str, list[dict[str, float]]]:
+    if not isinstance(table, dict):
+        raise PresetError(source, "expression", "must map FACS action units (AU12 ...) to lists of shape-key mixes")
+    units = read_object(EXPRESSION)["units"]
+    out = {}
+    for unit, alts in table.items():
+        if unit not in units:
+            raise PresetError(source, f"expression.{unit}",
+                              f"is not an action unit this add-on knows (expected one of: {', '.join(units)})")
+        alts = alts if isinstance(alts, list) else [alts]
+        out[unit] = [_mix(a, source, f"expression.{unit}") for a in alts]
+        if any(not mix for mix in out[unit]):
+            raise PresetError(source, f"expression.{unit}", "must name at least one shape key in each mix")
+    return out
 
 
 def from_viseme_set(vset: VisemeSet) -> Convention:
@@ -349,6 +374,60 @@ def detect(shape_keys: list[str], conventions: list[Convention], viseme_sets: di
         score = (m.complete, conv.speech, round(m.coverage, 6), m.keys, -order)
         if best_score is None or score > best_score:
             best, best_score = m, score
+    return best
+
+
+@dataclass
+class ExpressionMatch:
+    """The expression's action units on one mesh's shape keys."""
+
+    mapping: dict[str, dict[str, float]]    # unit -> {shape key on the mesh: weight}
+    convention: str = ""                    # the convention whose section mapped them
+    missing: list[str] = field(default_factory=list)   # units the conventions name that no key shows
+
+
+def _match_mixes(alternatives: list[dict[str, float]], prefixes: list[str], index: NameIndex
+                 ) -> tuple[dict[str, float], float]:
+    """Of ``alternatives``, the mix that keeps most of its weight on the
+    mesh's keys, and that share (0 when none of its keys exist)."""
+    best, best_share = {}, 0.0
+    for alt in alternatives:
+        found, kept = {}, 0.0
+        for key, w in alt.items():
+            actual = next((a for a in (index.find(p + key) for p in prefixes) if a), None)
+            if actual is not None:
+                found[actual] = w
+                kept += w
+        share = kept / max(sum(alt.values()), 1e-9)
+        if found and share > best_share + 1e-9:
+            best, best_share = found, share
+    return best, best_share
+
+
+def expression_match(shape_keys: list[str], conventions: list[Convention], mesh_names: tuple[str, ...] = (),
+                     prefer: str | None = None) -> ExpressionMatch:
+    """The mesh's keys for each action unit, by the convention whose
+    ``expression`` section shows the most units (``prefer``, the convention
+    the mesh speaks with, wins a tie).  A mesh with no expression keys (an
+    Oculus-only or mouth-only export) gets an empty mapping."""
+    index = NameIndex(shape_keys, mesh_names)
+    units = list(read_object(EXPRESSION)["units"])
+    best, best_score = ExpressionMatch({}), None
+    for order, conv in enumerate(conventions):
+        if not conv.expression:
+            continue
+        mapping, shown = {}, 0.0
+        for unit, alts in conv.expression.items():
+            mix, share = _match_mixes(alts, conv.prefixes, index)
+            if mix:
+                mapping[unit] = mix
+                shown += share
+        if not mapping:
+            continue
+        score = (round(shown, 6), conv.name == prefer or conv.label == prefer, -order)
+        if best_score is None or score > best_score:
+            best, best_score = ExpressionMatch(mapping, conv.name), score
+    best.missing = [u for u in units if u not in best.mapping]
     return best
 
 

@@ -44,6 +44,8 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     arousal: arousal_mod.Estimate | None = None   # how excited the voice sounds, -1 to 1
     emotions: list[dict] = field(default_factory=list)  # the emotion over time (inline tags, markers)
+    #: The expression on the whole face: FACS action unit -> per frame, 0-1 (none under neutral).
+    expression: dict[str, np.ndarray] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -70,6 +72,7 @@ class Result:
             "notes": self.notes,
             "arousal": self.arousal.to_dict() if self.arousal is not None else None,
             "emotions": self.emotions or [{"emotion": self.emotion, "time": 0.0, "fade": None}],
+            "expression": {unit: np.round(v, 4).tolist() for unit, v in self.expression.items()},
         }
 
     def write_json(self, path: str | os.PathLike) -> None:
@@ -81,12 +84,15 @@ class Result:
             fh.write(text)
 
     def write_csv(self, path: str | os.PathLike) -> None:
-        """The frame table: frame, time, then one column per viseme."""
+        """The frame table: frame, time, one column per viseme, then one per
+        expression action unit (none under neutral)."""
+        units = list(self.expression)
         with open(path, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
-            w.writerow(["frame", "time"] + list(self.viseme_set.visemes))
+            w.writerow(["frame", "time"] + list(self.viseme_set.visemes) + units)
             for k, (t, row) in enumerate(zip(self.times, self.curves)):
-                w.writerow([k, f"{t:.6f}"] + [f"{x:.4f}" for x in row])
+                w.writerow([k, f"{t:.6f}"] + [f"{x:.4f}" for x in row]
+                           + [f"{self.expression[u][k]:.4f}" for u in units])
 
 
 def check_output_path(path: str | os.PathLike, what: str = "output", inputs=()) -> None:

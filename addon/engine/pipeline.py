@@ -180,7 +180,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     return Result(duration=al.duration, fps=fps, viseme_set=vset, emotion=emotions[0]["emotion"],
                   model=coarticulation_model, alignment=al, pitch=r.pitch, intensity=r.intensity,
                   weights=r.weights, times=r.times, curves=r.curves, notes=notes, closure=closure,
-                  warnings=list(snd.notes) + list(al.warnings), arousal=voice, emotions=emotions)
+                  warnings=list(snd.notes) + list(al.warnings), arousal=voice, emotions=emotions,
+                  expression=r.expression)
 
 
 __all__ = ["analyze", "measure_voice", "MIN_SPEECH"]

@@ -37,6 +37,12 @@ Fields (see ``data/presets/neutral.json`` for values):
     other visemes (0-1); closures always reach their own target.
 ``smoothing``  Gaussian smoothing of the curves, seconds (0 = none).
 ``gain``  overall multiplier on every weight before clamping to [0, 1].
+``expression.<unit>``  the emotion on the whole face: FACS action units
+    (``AU12``, lip corner puller) and their strengths, 0 to 1, such as
+    ``{"AU6": 0.5, "AU12": 0.6}`` for happy.  The units and how the
+    expression moves over a line are in ``data/expression.json``
+    (:mod:`.expression`); which shape keys show them, in the naming
+    conventions.  Neutral has none.
 
 In the engine a preset is a :class:`Preset`: read and checked once
 (:func:`load`), then passed around typed; :meth:`Preset.to_dict` gives the
@@ -48,7 +54,7 @@ from __future__ import annotations
 import copy
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -57,12 +63,18 @@ from .errors import PresetError
 from .language.phonemes import CLASSES, PHONEMES
 
 DATA = Path(__file__).parent / "data" / "presets"
+EXPRESSION = Path(__file__).parent / "data" / "expression.json"
 BUILTIN = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
 CONTEXTS = ("VV", "VC", "CV", "CC")
 
 
 def builtin_names() -> list[str]:
     return [n for n in BUILTIN if (DATA / f"{n}.json").is_file()]
+
+
+def expression_units() -> tuple[str, ...]:
+    """The FACS action units a preset's ``expression`` may set."""
+    return tuple(read_object(EXPRESSION)["units"])
 
 
 def _num(source, field, value, lo, hi):
@@ -89,7 +101,9 @@ def validate(p: dict, source: str = "preset") -> dict:
                                   f"is not a preset field (expected one of: {', '.join(allowed)})")
 
     no_extra(p, ("name", "description", "base", "weights", "rules", "dominance", "closure", "smoothing", "gain",
-                 "learned"), "")
+                 "learned", "expression"), "")
+    if "expression" in p:
+        _validate_expression(p, source)
     if "learned" in p:
         _validate_learned(p["learned"], source)
     w = section(p, "weights", "weights")
@@ -228,6 +242,7 @@ class Preset:
     gain: float
     description: str = ""
     learned: Learned | None = None
+    expression: dict[str, float] = field(default_factory=dict)   # FACS unit -> strength, 0-1
 
     @classmethod
     def from_dict(cls, doc: dict, source: str = "preset") -> "Preset":
@@ -247,7 +262,8 @@ class Preset:
             dominance=Dominance(dm["plateau"], {c: DominanceShape(**v) for c, v in dm["classes"].items()}),
             closure_strength=d["closure"]["strength"], smoothing=d["smoothing"], gain=d["gain"],
             learned=Learned(le["viseme_set"], {v: dict(m) for v, m in le["targets"].items()}, le.get("report"))
-            if le is not None else None)
+            if le is not None else None,
+            expression=dict(d.get("expression", {})))
 
     def to_dict(self) -> dict:
         """The preset as its JSON document."""
@@ -270,6 +286,8 @@ class Preset:
             "smoothing": self.smoothing,
             "gain": self.gain,
         })
+        if self.expression:
+            doc["expression"] = dict(self.expression)
         if self.learned is not None:
             doc["learned"] = {"viseme_set": self.learned.viseme_set,
                               "targets": {v: dict(m) for v, m in self.learned.targets.items()}}
@@ -286,6 +304,24 @@ def as_preset(preset: "Preset | dict", source: str = "preset") -> Preset:
     """``preset`` as a :class:`Preset`: a preset document (a dict, which may
     name a ``base``) is resolved and checked."""
     return preset if isinstance(preset, Preset) else Preset.from_dict(resolve(dict(preset), source), source)
+
+
+def _validate_expression(p: dict, source: str) -> None:
+    """``expression``: FACS action unit -> strength, 0 to 1."""
+    ex = p["expression"]
+    if not isinstance(ex, dict):
+        raise PresetError(source, "expression", "must map FACS action units (AU12 ...) to strengths 0-1")
+    units = expression_units()
+    for unit in ex:
+        if unit not in units:
+            raise PresetError(source, f"expression.{unit}",
+                              f"is not an action unit this add-on knows (expected one of: {', '.join(units)})")
+        ex[unit] = _num(source, f"expression.{unit}", ex[unit], 0.0, 1.0)
+    kept = {u: ex[u] for u in ex if ex[u] > 0}   # 0 takes a unit out (of the base's expression too)
+    if kept:
+        p["expression"] = kept
+    else:
+        del p["expression"]
 
 
 def _validate_learned(le, source: str) -> None:

@@ -6,19 +6,21 @@ measurements: each phoneme's viseme weight from its pitch and intensity
 model or Cohen-Massaro dominance), smoothing, rest in the pauses and the
 lips closed on /p b m/ (:func:`curves`).  :func:`render` does it for a whole
 line whose emotion may change inside it (inline tags, timeline markers),
-mixing the curves of the presets involved as :mod:`.emotion_track` says.
+mixing the curves of the presets involved as :mod:`.emotion_track` says,
+and with them the expression of each preset on the whole face
+(:mod:`.expression`).
 
 The pipeline, the emotion track and the learner all render through here.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import arousal as arousal_mod
-from . import coarticulation, pauses, prosody, visemes, weights
+from . import coarticulation, expression, pauses, prosody, visemes, weights
 from .alignment import Alignment
 from .emotion_track import DEFAULT_FADE, Change, mix
 from .errors import LipSyncError
@@ -113,7 +115,8 @@ def viseme_set_for(preset: Preset, viseme_set: str | None = None) -> visemes.Vis
 class Rendered:
     """A rendered line: per phoneme its pitch (Hz, NaN where unvoiced),
     intensity (dB) and viseme weight; the frame times and the viseme curves
-    (frames, visemes) in [0, 1]; and the clip's voice statistics."""
+    (frames, visemes) in [0, 1]; the clip's voice statistics; and the
+    expression, one curve per FACS action unit (none under neutral)."""
 
     pitch: np.ndarray
     intensity: np.ndarray
@@ -121,6 +124,7 @@ class Rendered:
     times: np.ndarray
     curves: np.ndarray
     stats: prosody.ClipStats
+    expression: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Change], vset: visemes.VisemeSet,
@@ -145,7 +149,9 @@ def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Ch
         index.append(keys.index(key))
     centres = np.array([(p.start + p.end) / 2 for p in al.phones])
     spans = [(p.start, p.end) for p in al.phones]
-    results = []
+    phones = [(p.phone, p.start, p.end) for p in al.phones]
+    results, faces = [], []
+    voice = None
     for p in plist:
         if changes and viseme_set_for(p, viseme_set).name != vset.name:
             raise LipSyncError(f"preset {p.name!r} uses the {viseme_set_for(p, viseme_set).name!r} "
@@ -153,7 +159,11 @@ def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Ch
         stats, pitch, inten = prosody.for_preset(tracks, spans, p.weights)
         follow = estimate.at(centres) if estimate is not None and p.weights.follow_voice > 0 else None
         w, times, out = curves(al, pitch, inten, stats, vset, p, model, fps, arousal=follow)
-        results.append(Rendered(pitch, inten, w, times, out, stats))
+        if p.expression and voice is None and estimate is not None:
+            voice = estimate.at(times)
+        faces.append(expression.unit_curves(p.expression, times, phones, pitch, fps, voice)
+                     if p.expression else {})
+        results.append(Rendered(pitch, inten, w, times, out, stats, faces[-1]))
     first = results[0]
     if len(plist) == 1:
         return first
@@ -161,4 +171,4 @@ def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Ch
     out = np.clip(sum(m[:, k, None] * r.curves for k, r in enumerate(results)), 0.0, 1.0)
     mp = mix(centres, [c.time for c in later], len(plist), index, fade)
     w = sum(mp[:, k] * r.weights for k, r in enumerate(results)) if len(centres) else first.weights
-    return Rendered(first.pitch, first.intensity, w, first.times, out, first.stats)
+    return Rendered(first.pitch, first.intensity, w, first.times, out, first.stats, expression.mix(faces, m))

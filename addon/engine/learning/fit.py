@@ -50,6 +50,11 @@ takes from the fit only the parts (:mod:`.parts`: timing per group of
 phoneme classes, poses per articulator) that the held-out check over every
 fold supports without making any track worse (:mod:`.select`); the rest is
 the starting preset's.  ``keep_learned`` takes every part.
+
+The expression layer is fitted too when the capture carries its channels
+(an ARKit capture's brows, cheeks, eyes and mouth corners):
+:func:`..expression.fit` gives each action unit's strength, which the
+learned preset carries (``expression``) and the report lists.
 """
 
 from __future__ import annotations
@@ -64,7 +69,7 @@ from typing import Callable
 
 import numpy as np
 
-from .. import mapping, presets, visemes
+from .. import expression, mapping, presets, visemes
 from ..errors import LipSyncError
 from ..language.phonemes import CLASSES
 from . import delay as delay_mod
@@ -535,6 +540,13 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "
         preset["name"] = name
         preset["description"] = (f"The starting preset {base.get('name', '')!r}, kept: no part learned from "
                                  f"{len(tr)} clips did better on the held-out clips (see the training report)")
+        preset = presets.validate(preset, name)
+    # The expression layer, from the capture's brow, eye, cheek and mouth-corner channels.
+    face = expression.fit([(c.times, c.aligned(final.delay), [(p.phone, p.start, p.end) for p in c.alignment.phones],
+                            c.pitch) for c in prepared], channels, fps)
+    result["expression"] = face
+    if face and kept == "learned":
+        preset["expression"] = {u: v["strength"] for u, v in face.items()}
         preset = presets.validate(preset, name)
     result["fit"]["seconds"] = round(time.perf_counter() - t_start, 3)
     tell("done", 1.0)
