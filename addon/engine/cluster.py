@@ -5,7 +5,7 @@ The scheduler and the workers need Python and numpy, praat-parselmouth,
 pocketsphinx, dask and distributed at this machine's versions; they need
 neither this repository nor a path setting.  This machine ships the engine:
 
-* its files, zipped (about 200 kB), are the result of one task that every
+* its files, zipped (about 170 kB), are the result of one task that every
   line's task takes as its argument, so each worker fetches them once from
   another worker, and the scheduler keeps them to compute them again if
   every worker that had them is lost;
