@@ -47,6 +47,18 @@ if not hasattr(importlib.metadata, "real_version"):
 '''
 
 
+# A scheduler environment with another cloudpickle, as Dask reports it.
+OTHER_CLOUDPICKLE = '''
+import distributed.versions
+
+if not hasattr(distributed.versions, "real_version"):
+    distributed.versions.real_version = distributed.versions.version
+    distributed.versions.version = (lambda name: "3.0.0" if name == "cloudpickle"
+                                    else distributed.versions.real_version(name))
+    distributed.versions._version_cached.cache_clear()
+'''
+
+
 class Cluster:
     """``dask scheduler`` and ``dask worker`` processes on 127.0.0.1, started
     in ``folder`` without PYTHONPATH; :meth:`stop` ends them and their children."""
@@ -66,10 +78,10 @@ class Cluster:
         self.procs[name] = p
         return p
 
-    def scheduler(self) -> str:
+    def scheduler(self, *args: str) -> str:
         info = self.folder / "scheduler.json"
         self._start("scheduler", "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                    "--scheduler-file", str(info))
+                    "--scheduler-file", str(info), *args)
         t0 = time.monotonic()
         while self.address is None:
             assert time.monotonic() - t0 < 30, "the scheduler did not start:\n" + self.logs()
@@ -206,6 +218,19 @@ def test_a_worker_that_cannot_load_the_engine_stops_the_batch_in_one_line(cluste
     assert not (lines / "res").exists()                  # nothing written
 
 
+def test_a_scheduler_with_other_versions_stops_the_batch_in_one_line(cluster, lines):
+    (cluster.folder / "other_env.py").write_text(OTHER_CLOUDPICKLE)
+    address = cluster.scheduler("--preload", str(cluster.folder / "other_env.py"))
+    _manifest(lines, 2)
+    r, seconds = _batch_cli(lines / "m.jsonl", "--scheduler", address)
+    assert r.returncode == 1
+    assert r.stderr == (f"error: the Dask scheduler at {address} has cloudpickle 3.0.0 where this machine has "
+                        "cloudpickle 3.1.3; the cluster needs this machine's Python and package versions "
+                        "(see the README)\n")
+    assert seconds < 60
+    assert not (lines / "res").exists()
+
+
 def test_no_worker_stops_the_batch_in_one_line_after_the_cluster_timeout(cluster, lines):
     address = cluster.scheduler()
     _manifest(lines, 2)
@@ -245,6 +270,32 @@ def test_losing_every_worker_mid_run_stops_the_batch_in_one_line(cluster, lines)
     assert len(done) + left == 40 and all(p.endswith(".json") for p in done)   # no part-written file
     for name in done:
         json.loads((lines / "res" / name).read_text())
+
+
+def test_a_worker_that_joins_later_and_cannot_load_the_engine_stops_the_batch_in_one_line(cluster, lines):
+    address = cluster.scheduler()
+    cluster.worker("good")
+    cluster.wait_for_workers(1)
+    (cluster.folder / "broken_env.py").write_text(NO_POCKETSPHINX)
+    _manifest(lines, 90)
+    batch_run = subprocess.Popen([sys.executable, "-m", "addon", "batch", lines / "m.jsonl", "--scheduler", address],
+                                 cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        t0 = time.monotonic()
+        while not (lines / "res").is_dir():
+            assert batch_run.poll() is None and time.monotonic() - t0 < 60, cluster.logs()
+            time.sleep(0.05)
+        cluster.worker("broken", "--preload", str(cluster.folder / "broken_env.py"))
+        out, err = batch_run.communicate(timeout=60)
+    finally:
+        if batch_run.poll() is None:
+            batch_run.kill()
+    assert batch_run.returncode == 1, out + err
+    assert re.fullmatch(r"error: the Dask worker tcp://127\.0\.0\.1:\d+ cannot load the lip-sync engine: "
+                        r"No module named 'pocketsphinx'; (\d+) lines not done \(the finished ones are kept; "
+                        r"run again to do the rest\)\n", err), err
+    left = int(re.search(r"(\d+) lines not done", err).group(1))
+    assert len(list((lines / "res").iterdir())) == 90 - left
 
 
 def test_unreachable_scheduler_stops_the_batch_in_one_line(lines):

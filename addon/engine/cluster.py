@@ -73,7 +73,8 @@ def environment() -> dict[str, str | None]:
 
 def differences(ours: dict, theirs: dict, names) -> str | None:
     """``theirs`` against ``ours`` as one phrase ("has pocketsphinx 5.0.0 where
-    this machine has 5.1.1"), or None when they agree on every name."""
+    this machine has pocketsphinx 5.1.1"), or None when they agree on every
+    name."""
     names = [n for n in names if theirs.get(n) != ours.get(n)]
     if not names:
         return None
@@ -158,7 +159,9 @@ def _task_functions():
 
     def problem(exc):
         msg = " ".join(str(exc).split())
-        return {"problem": f"cannot load the lip-sync engine: {msg or type(exc).__name__}"}
+        if not (msg and isinstance(exc, ImportError)):
+            msg = f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
+        return {"problem": f"cannot load the lip-sync engine: {msg}"}
 
     def here():
         from distributed import get_worker
@@ -375,17 +378,19 @@ def _run(client, address, lines, defaults, deadline, timeout) -> Iterator:
     def left() -> float:
         return max(0.0, deadline - time.monotonic())
 
+    def versions() -> dict:
+        return _within(left(), f"the Dask scheduler at {address} did not report its and its workers' versions "
+                               f"within {timeout:g} s", client.get_versions, packages=list(PACKAGES))
+
+    here = environment()
+    diff = differences(here, _package_versions(versions().get("scheduler")), ["python", *SCHEDULER_PACKAGES])
+    if diff:
+        raise LipSyncError(f"the Dask scheduler at {address} {diff}{VERSIONS_HINT}")
     try:
         client.wait_for_workers(1, timeout=left())
     except Exception:
         raise LipSyncError(f"no Dask worker joined the scheduler at {address} within {timeout:g} s") from None
-    here = environment()
-    versions = _within(left(), f"the Dask scheduler at {address} did not report its workers' versions "
-                               f"within {timeout:g} s", client.get_versions, packages=list(PACKAGES))
-    diff = differences(here, _package_versions(versions.get("scheduler")), ["python", *SCHEDULER_PACKAGES])
-    if diff:
-        raise LipSyncError(f"the Dask scheduler at {address} {diff}{VERSIONS_HINT}")
-    for worker, info in sorted((versions.get("workers") or {}).items()):
+    for worker, info in sorted((versions().get("workers") or {}).items()):
         if isinstance(info, dict) and "packages" in info:
             diff = differences(here, _package_versions(info), ["python", *PACKAGES])
             if diff:
