@@ -16,18 +16,31 @@ pool of one worker per core and reports
 * the peak memory of each worker process (its VmHWM; target <= 300 MB);
 * that every line was written and how many words came out estimated.
 
-    .venv/bin/python bench/batch_throughput.py [--lines N] [--workers N] [--keep DIR]
+With ``--cluster`` it then runs the same lines on a Dask cluster of separate
+processes on this machine, started as the README says (``dask scheduler``
+and ``dask worker --nworkers N --nthreads 1`` from a folder outside the
+repository, without PYTHONPATH), twice: first with workers that have not
+seen the engine (it is shipped and loaded), then again; it reports lines per
+second beside the local pool's, this process's CPU time per line, and
+whether every output equals the local pool's byte for byte.
+
+    .venv/bin/python bench/batch_throughput.py [--lines N] [--workers N] [--keep DIR] [--cluster]
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import shutil
+import signal
+import subprocess
+import sys
 import tempfile
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -137,11 +150,95 @@ class WorkerMemory:
             self._poll()
 
 
+@contextmanager
+def dask_cluster(workers: int):
+    """A scheduler and ``workers`` worker processes on 127.0.0.1, started
+    from a temporary folder without PYTHONPATH; yields the address."""
+    import distributed
+
+    folder = Path(tempfile.mkdtemp(prefix="lipsync_cluster_"))
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    dask = str(Path(sys.executable).parent / "dask")
+    procs = []
+
+    def start(*args):
+        with open(folder / f"{len(procs)}.log", "wb") as log:
+            procs.append(subprocess.Popen([dask, *args], cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT,
+                                          start_new_session=True))
+
+    try:
+        start("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+              "--scheduler-file", str(folder / "scheduler.json"))
+        t0 = time.monotonic()
+        while not (folder / "scheduler.json").exists():
+            if time.monotonic() - t0 > 60:
+                raise SystemExit("the scheduler did not start")
+            time.sleep(0.1)
+        time.sleep(0.2)
+        address = json.loads((folder / "scheduler.json").read_text())["address"]
+        start("worker", address, "--nworkers", str(workers), "--nthreads", "1", "--host", "127.0.0.1",
+              "--no-dashboard", "--local-directory", str(folder / "workers"))
+        with distributed.Client(address, timeout=60, set_as_default=False) as client:
+            client.wait_for_workers(workers, timeout=120)
+        yield address
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+        for p in procs:
+            try:
+                p.wait(15)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait()
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def digests(report: batch.Report) -> dict[str, str]:
+    return {o: hashlib.sha256(Path(o).read_bytes()).hexdigest() for out in report.outcomes for o in out.outputs}
+
+
+def tree_cpu() -> float:
+    """User + system CPU seconds of this process and every process below it."""
+    import psutil
+
+    total = 0.0
+    for proc in [psutil.Process(), *psutil.Process().children(recursive=True)]:
+        try:
+            t = proc.cpu_times()
+            total += t.user + t.system
+        except psutil.Error:
+            pass
+    return total
+
+
+def cluster_runs(manifest: Path, workers: int, local_rate: float, local_cpu: float, local: dict[str, str]) -> None:
+    print(f"Dask cluster on this machine: a scheduler and {workers} worker processes (separate, no PYTHONPATH)")
+    with dask_cluster(workers) as address:
+        for run in ("engine shipped and loaded", "engine already loaded"):
+            cpu0, own0 = tree_cpu(), time.process_time()
+            report = batch.run(manifest, scheduler=address, force=True, progress=None)
+            done = max(report.count("ok"), 1)
+            cpu, own = (tree_cpu() - cpu0) / done, (time.process_time() - own0) / done
+            rate = report.count("ok") / report.seconds
+            same = sum(local.get(o) == h for o, h in digests(report).items())
+            print(f"  {run}: {report.summary()}")
+            print(f"    throughput {rate:.1f} lines/s, the local pool {local_rate:.1f} "
+                  f"({100 * rate / local_rate:.0f} %); {same} of {len(local)} outputs byte-identical to its")
+            print(f"    CPU per line, every process {1000 * cpu:.0f} ms (the local pool {1000 * local_cpu:.0f} ms): "
+                  f"{os.cpu_count() / cpu:.1f} lines/s on {os.cpu_count()} otherwise idle cores "
+                  f"(the local pool {os.cpu_count() / local_cpu:.1f}); this process {1000 * own:.1f} ms")
+            for msg in report.failure_lines()[:10]:
+                print("    failed:", msg)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--lines", type=int, default=2400)
     ap.add_argument("--workers", type=int, default=0)
     ap.add_argument("--keep", metavar="DIR", help="build the lines here and keep them")
+    ap.add_argument("--cluster", action="store_true",
+                    help="then run the lines on a Dask cluster of separate processes here, beside the local pool")
     args = ap.parse_args()
     need_data()
     folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="lipsync_batch_"))
@@ -154,8 +251,10 @@ def main():
           f"{MIN_LEN}-{MAX_LEN} s each) in {time.perf_counter() - t0:.0f} s")
 
     workers = args.workers or os.cpu_count() or 1
+    own0 = time.process_time()
     with WorkerMemory() as mem:
         report = batch.run(manifest, workers=workers, force=True, progress=None)
+    own = time.process_time() - own0
     rate = report.count("ok") / report.seconds
     print(f"{workers} workers ({os.cpu_count()} cores): {report.summary()}")
     print(f"  throughput {rate:.1f} lines/s  (target >= 10)")
@@ -172,6 +271,8 @@ def main():
     print(f"  {len(outs)} outputs, {words} words, {est} estimated ({100 * est / max(words, 1):.1f} %)")
     for msg in report.failure_lines()[:10]:
         print("  failed:", msg)
+    if args.cluster:
+        cluster_runs(manifest, workers, rate, cpu + own / max(report.count("ok"), 1), digests(report))
     if not args.keep:
         shutil.rmtree(folder)
 

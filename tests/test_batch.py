@@ -235,7 +235,7 @@ def _with_timeout(seconds, fn):
 
 def test_unreachable_scheduler_is_one_clear_error(lines_dir):
     (lines_dir / "m.csv").write_text("audio\nbob_map.wav\n")
-    r = _cli("batch", lines_dir / "m.csv", "--scheduler", "tcp://127.0.0.1:9")
+    r = _cli("batch", lines_dir / "m.csv", "--scheduler", "tcp://127.0.0.1:9", "--cluster-timeout", "5")
     assert r.returncode == 1
     assert r.stderr.startswith("error: cannot reach the Dask scheduler at tcp://127.0.0.1:9")
     assert "Traceback" not in r.stderr

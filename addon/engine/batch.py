@@ -246,7 +246,11 @@ def read_manifest(path: str | os.PathLike, formats: Iterable[str] = ("json",),
 @lru_cache(maxsize=1)
 def engine_version() -> str:
     """The extension's version, from ``blender_manifest.toml`` (in the
-    extension's folder, or one above it in a checkout)."""
+    extension's folder, or one above it in a checkout), or from the
+    ``VERSION`` file of an engine shipped on its own (to a Dask cluster)."""
+    shipped = Path(__file__).resolve().parent / "VERSION"
+    if shipped.is_file():
+        return shipped.read_text(encoding="utf-8").strip()
     here = Path(__file__).resolve().parent.parent
     for folder in (here, here.parent):
         try:
@@ -675,55 +679,15 @@ def run_local(lines: list[Line], defaults: Defaults, workers: int = 0) -> Iterat
         todo.sort(key=lambda ln: ln.number)
 
 
-class WarmPlugin:
-    """Dask worker plugin: each worker loads the models when it starts."""
-
-    name = "emotive-lipsync-warm"
-
-    def __init__(self, dictionary: str | None = None):
-        self.dictionary = dictionary
-
-    def setup(self, worker=None):
-        warm(self.dictionary)
-
-    def teardown(self, worker=None):
-        pass
-
-
-def run_dask(lines: list[Line], defaults: Defaults, scheduler) -> Iterator[Outcome]:
+def run_dask(lines: list[Line], defaults: Defaults, scheduler, timeout: float = 60.0) -> Iterator[Outcome]:
     """The lines on a Dask distributed cluster (``scheduler``: its address,
-    or a ``distributed.Client``).  The workers need this package importable
-    and the input files at the same paths.  Results are streamed back as
-    lines finish; Dask reruns the lines of a worker that is lost (up to its
-    ``distributed.scheduler.allowed-failures``), and this process writes
-    each line's outputs once, whichever run of it comes back first."""
-    try:
-        from distributed import Client, as_completed
-        from distributed.diagnostics.plugin import WorkerPlugin
-    except ImportError:
-        raise LipSyncError("--scheduler needs Dask distributed: pip install distributed") from None
+    or a ``distributed.Client``) whose machines need the engine's packages
+    but not this one: see :mod:`.cluster`.  Outcomes come as lines finish;
+    LipSyncError, within ``timeout`` seconds, when the cluster cannot run
+    the lines."""
+    from .cluster import run_dask as _run_dask
 
-    plugin = type("LipSyncWarm", (WarmPlugin, WorkerPlugin), {})(defaults.dictionary)
-    own = not isinstance(scheduler, Client)
-    try:
-        client = Client(scheduler, timeout=10) if own else scheduler
-    except (OSError, TimeoutError) as exc:
-        raise LipSyncError(f"cannot reach the Dask scheduler at {scheduler}: {one_line_error(exc)}") from None
-    try:
-        client.register_plugin(plugin)
-        futures = {client.submit(work, ln, defaults, key=f"lipsync-line-{ln.number}-{time.time_ns()}",
-                                 pure=False): ln for ln in lines}
-        for fut in as_completed(list(futures)):
-            ln = futures[fut]
-            try:
-                yield fut.result()
-            except Exception as exc:  # KilledWorker: the line took down every worker it ran on
-                yield Outcome(ln.number, ln.label(), "failed",
-                              error=f"lost on the cluster: {one_line_error(exc)}")
-            fut.release()
-    finally:
-        if own:
-            client.close()
+    return _run_dask(lines, defaults, scheduler, timeout)
 
 
 # ---------------------------------------------------------------------------
@@ -802,12 +766,14 @@ def _progress_bar(total: int, initial: int, enabled: bool | None):
 
 def run(manifest: str | os.PathLike, defaults: Defaults | None = None, *, formats=("json",),
         out_dir: str | None = None, workers: int = 0, force: bool = False, scheduler=None,
-        progress: bool | None = None, on_outcome: Callable[[Outcome], None] | None = None) -> Report:
+        cluster_timeout: float = 60.0, progress: bool | None = None,
+        on_outcome: Callable[[Outcome], None] | None = None) -> Report:
     """Lip-sync every line of ``manifest`` and write the outputs.
 
     Up-to-date lines are skipped unless ``force``; ``scheduler`` (an address
-    or a ``distributed.Client``) runs the lines on a Dask cluster, else
-    ``workers`` processes here (1: this process).  ``on_outcome`` is called
+    or a ``distributed.Client``) runs the lines on a Dask cluster (which
+    must take them within ``cluster_timeout`` seconds), else ``workers``
+    processes here (1: this process).  ``on_outcome`` is called
     with each line's outcome as it arrives."""
     defaults = defaults or Defaults()
     t0 = time.perf_counter()
@@ -832,7 +798,7 @@ def run(manifest: str | os.PathLike, defaults: Defaults | None = None, *, format
         if not todo:
             stream: Iterable[Outcome] = ()
         elif scheduler is not None:
-            stream = run_dask(todo, defaults, scheduler)
+            stream = run_dask(todo, defaults, scheduler, cluster_timeout)
         elif workers == 1 or len(todo) == 1:
             stream = run_inline(todo, defaults)
         else:

@@ -39,6 +39,9 @@ def _check_options(args) -> None:
         raise LipSyncError("--workers must be 0 (one per core) or more")
     if not args.emotion_fade >= 0 or args.emotion_fade == float("inf"):
         raise LipSyncError(f"--emotion-fade must be 0 or more seconds, not {args.emotion_fade:g}")
+    timeout = getattr(args, "cluster_timeout", 60.0)
+    if not 0 < timeout < float("inf"):
+        raise LipSyncError(f"--cluster-timeout must be more than 0 seconds, not {timeout:g}")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -208,6 +211,10 @@ def _batch_parser(sub) -> None:
     b.add_argument("--csv", action="store_true", help="write CSV frame tables")
     b.add_argument("--workers", type=int, default=0, help="worker processes (default: one per core)")
     b.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786")
+    b.add_argument("--cluster-timeout", type=float, default=60.0, metavar="SECONDS",
+                   help="with --scheduler: give up when the cluster has not taken the lines (scheduler reached, "
+                        "a worker joined, the engine loaded) within SECONDS, or has had no worker that long "
+                        "(default: 60)")
     b.add_argument("--force", action="store_true", help="redo every line, up to date or not")
     b.add_argument("--report", metavar="FILE", help="write a JSON report of every line")
     _style_options(b, per_line=True)
@@ -223,7 +230,7 @@ def _batch(args) -> int:
     try:
         _check_options(args)
         report = batch.run(args.manifest, defaults, formats=formats, out_dir=args.out, workers=args.workers,
-                           force=args.force, scheduler=args.scheduler)
+                           force=args.force, scheduler=args.scheduler, cluster_timeout=args.cluster_timeout)
     except LipSyncError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
