@@ -243,6 +243,23 @@ def test_a_file_that_cannot_be_decoded_is_one_line_naming_the_file_and_what_it_i
     assert "\n" not in msg and str(path) in msg and f"it is {what}" in msg and "cannot be decoded" in msg
 
 
+def test_a_file_cut_short_is_read_up_to_where_it_breaks_with_a_warning(tmp_path):
+    """A FLAC file cut in the middle (a download that stopped): the sound up
+    to the cut, and a note (shown as a warning) naming the file and where its
+    sound ends."""
+    whole = make(tmp_path, "flac")
+    raw = whole.read_bytes()
+    cut = tmp_path / "cut.flac"
+    cut.write_bytes(raw[:len(raw) * 6 // 10])
+    snd = audio.load(cut)
+    full = audio.load(whole)
+    assert 0.45 * full.duration < snd.duration < 0.62 * full.duration
+    assert np.abs(snd.samples[:16000] - full.samples[:16000]).max() < 1e-3    # resampled at another length
+    (note,) = snd.notes
+    assert str(cut) in note and "cut short" in note and f"up to {snd.duration:.2f} s" in note
+    assert audio.load(whole).notes == []
+
+
 def test_a_video_without_sound_says_so(tmp_path):
     import av
 

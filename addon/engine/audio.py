@@ -140,7 +140,7 @@ def load(path: str | os.PathLike) -> Audio:
     missing, reasons = [], []
     for package in order:
         try:
-            samples, rate = decoders.decode(path, package)
+            samples, rate, cut = decoders.decode(path, package)
         except decoders.Missing:
             missing.append(package)
             continue
@@ -148,11 +148,16 @@ def load(path: str | os.PathLike) -> Audio:
             reasons.append(str(exc))
             continue
         if isinstance(samples, decoders.DiskSamples):
-            return Audio(samples, rate)
-        try:
-            return from_samples(samples, rate)
-        except AudioError as exc:    # no samples, or samples that are not numbers
-            raise AudioError(f"cannot read audio file {path}: it is {what or 'a sound file'}, but {exc}") from None
+            snd = Audio(samples, rate)
+        else:
+            try:
+                snd = from_samples(samples, rate)
+            except AudioError as exc:    # no samples, or samples that are not numbers
+                raise AudioError(f"cannot read audio file {path}: it is {what or 'a sound file'}, but {exc}") \
+                    from None
+        if cut:
+            snd.notes.append(f"audio file {path}: {cut}")
+        return snd
     if missing and what in _PRAAT:
         return _praat(path, what)
     if what is None and _looks_like_text(head):

@@ -32,8 +32,10 @@ import numpy as np
 from .resampling import MODEL_RATE, StreamResampler
 from .wavstream import LONG
 
-#: Frames read from the file at a time.
+#: Frames read from the file at a time (libsndfile), or passed on at a time (FFmpeg's short frames
+#: gathered); a read that fails loses its block, so libsndfile's are shorter.
 BLOCK = 1 << 16
+_SF_BLOCK = 1 << 14
 
 
 class Missing(Exception):
@@ -47,8 +49,27 @@ class Undecodable(Exception):
 Blocks = Iterator[np.ndarray]
 
 
-def soundfile_blocks(path: str) -> tuple[int, Blocks]:
-    """(rate, mono float32 blocks) of a file libsndfile reads."""
+class Stream:
+    """A file being decoded: its rate, the seconds it says it lasts (or
+    None), its mono float32 blocks (iterate), and, once they have run out,
+    why they stopped early (a file damaged or cut short) or None."""
+
+    def __init__(self, rate: int, declared: float | None):
+        self.rate, self.declared, self.stopped = rate, declared, None
+        self._blocks: Blocks = iter(())
+
+    def __iter__(self) -> Blocks:
+        return self._blocks
+
+    def stop(self, done: int, reason: str) -> None:
+        """Decoding failed after ``done`` samples: the rest is not read (none read: the file cannot be)."""
+        if done == 0:
+            raise Undecodable(reason)
+        self.stopped = f"its sound could be decoded up to {done / self.rate:.2f} s only ({reason})"
+
+
+def soundfile_blocks(path: str) -> Stream:
+    """A file libsndfile reads."""
     try:
         import soundfile
     except ImportError:
@@ -58,30 +79,32 @@ def soundfile_blocks(path: str) -> tuple[int, Blocks]:
     except (soundfile.LibsndfileError, RuntimeError, ValueError) as exc:
         raise Undecodable(_sf_reason(exc)) from None
     rate = int(f.samplerate)
+    stream = Stream(rate, f.frames / rate if 0 < f.frames < 1 << 62 else None)
 
     def blocks() -> Blocks:
         with f:
             done = 0
             try:
-                for block in f.blocks(blocksize=BLOCK, dtype="float32", always_2d=True):
+                for block in f.blocks(blocksize=_SF_BLOCK, dtype="float32", always_2d=True):
                     done += len(block)
                     yield block[:, 0] if block.shape[1] == 1 else block.mean(axis=1, dtype=np.float32)
             except (soundfile.LibsndfileError, RuntimeError) as exc:
-                raise Undecodable(f"{_sf_reason(exc)} (at {done / rate:.2f} s)") from None
+                stream.stop(done, _sf_reason(exc))
 
-    return rate, blocks()
+    stream._blocks = blocks()
+    return stream
 
 
 def _sf_reason(exc: Exception) -> str:
     reason = getattr(exc, "error_string", None) or str(exc)
     if reason.startswith("Error opening") and ": " in reason:    # "Error opening 'x.ogg': Format not recognised."
         reason = reason.split(": ", 1)[1]
-    return reason.strip().rstrip(".")
+    return reason.replace("Error : ", "").strip().rstrip(".")
 
 
-def av_blocks(path: str) -> tuple[int, Blocks]:
-    """(rate, mono float32 blocks) of the first sound track of a file FFmpeg
-    reads (video frames are skipped without being decoded)."""
+def av_blocks(path: str) -> Stream:
+    """The first sound track of a file FFmpeg reads (video frames are
+    skipped without being decoded)."""
     try:
         import av
     except ImportError:
@@ -93,8 +116,8 @@ def av_blocks(path: str) -> tuple[int, Blocks]:
     if not container.streams.audio:
         container.close()
         raise Undecodable("it holds no sound track")
-    stream = container.streams.audio[0]
-    frames = container.decode(stream)
+    track = container.streams.audio[0]
+    frames = container.decode(track)
     try:
         first = next(frames)
     except StopIteration:
@@ -104,6 +127,7 @@ def av_blocks(path: str) -> tuple[int, Blocks]:
         container.close()
         raise Undecodable(_av_reason(exc)) from None
     rate = int(first.sample_rate)
+    stream = Stream(rate, float(track.duration * track.time_base) if track.duration and track.time_base else None)
 
     def blocks() -> Blocks:
         with container:
@@ -121,11 +145,12 @@ def av_blocks(path: str) -> tuple[int, Blocks]:
                         yield np.concatenate(parts)
                         parts, held = [], 0
             except av.error.FFmpegError as exc:
-                raise Undecodable(f"{_av_reason(exc)} (at {done / rate:.2f} s)") from None
+                stream.stop(done, _av_reason(exc))
             if parts:
                 yield np.concatenate(parts)
 
-    return rate, blocks()
+    stream._blocks = blocks()
+    return stream
 
 
 #: Integer sample formats FFmpeg decodes to: (offset, scale) to [-1, 1).
@@ -151,15 +176,30 @@ def _av_reason(exc: Exception) -> str:
 
 
 #: The decoders by the name of the package they need.
-DECODERS: dict[str, Callable[[str], tuple[int, Blocks]]] = {"soundfile": soundfile_blocks, "av": av_blocks}
+DECODERS: dict[str, Callable[[str], Stream]] = {"soundfile": soundfile_blocks, "av": av_blocks}
+
+#: A file whose sound ends this much (s, or this share of it) before the length it declares is cut short.
+_SHORT_BY, _SHORT_SHARE = 0.25, 0.02
 
 
-def decode(path: str, package: str) -> tuple[np.ndarray | DiskSamples, int]:
-    """The file's mono samples and their rate, decoded by ``package``: a
-    file shorter than :data:`LONG` whole, at its own rate; a longer one at
-    16 kHz in a :class:`DiskSamples`.  Raises :class:`Missing` or
-    :class:`Undecodable` (also for samples that are not numbers)."""
-    rate, blocks = DECODERS[package](path)
+def _note(stream: Stream, n: int) -> str | None:
+    """What to tell the user about a file that is damaged or cut short."""
+    if stream.stopped:
+        return f"the file is damaged or cut short: {stream.stopped}"
+    declared = stream.declared
+    if declared is None or n / stream.rate >= declared - max(_SHORT_BY, _SHORT_SHARE * declared):
+        return None
+    return f"the file is cut short: it says it lasts {declared:.2f} s and its sound ends at {n / stream.rate:.2f} s"
+
+
+def decode(path: str, package: str) -> tuple[np.ndarray | DiskSamples, int, str | None]:
+    """The file's mono samples, their rate and a note if the file is damaged
+    or cut short, decoded by ``package``: a file shorter than :data:`LONG`
+    whole, at its own rate; a longer one at 16 kHz in a
+    :class:`DiskSamples`.  Raises :class:`Missing` or :class:`Undecodable`
+    (also for samples that are not numbers)."""
+    blocks = DECODERS[package](path)
+    rate = blocks.rate
     head, n = [], 0
     for x in blocks:
         head.append(x)
@@ -167,7 +207,8 @@ def decode(path: str, package: str) -> tuple[np.ndarray | DiskSamples, int]:
         if n >= LONG * rate:
             break
     else:
-        return (np.concatenate(head) if head else np.zeros(0, np.float32)), rate
+        return (np.concatenate(head) if head else np.zeros(0, np.float32)), rate, _note(blocks, n)
+    n = 0
     head.reverse()
     store, resampler = DiskSamples(), StreamResampler(rate, MODEL_RATE)
 
@@ -179,9 +220,10 @@ def decode(path: str, package: str) -> tuple[np.ndarray | DiskSamples, int]:
     for x in read_on():
         if not np.all(np.isfinite(x)):
             raise Undecodable("it holds invalid samples (NaN or infinity)")
+        n += len(x)
         store.append(resampler.push(x))
     store.append(resampler.finish())
-    return store.done(), MODEL_RATE
+    return store.done(), MODEL_RATE, _note(blocks, n)
 
 
 class DiskSamples:
