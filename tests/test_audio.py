@@ -1,9 +1,9 @@
-"""Resampling to the aligner's 16 kHz."""
+"""Resampling to the aligner's 16 kHz, and plain PCM WAV files read without Praat."""
 
 import numpy as np
 import pytest
 
-from addon.engine import audio
+from addon.engine import audio, resampling
 
 
 @pytest.mark.parametrize("rate", [44100, 48000, 22050, 8000])
@@ -21,7 +21,7 @@ def test_blocks_match_the_whole_signal_transform():
     rng = np.random.default_rng(0)
     x = rng.normal(size=44100 * 12) * 0.1
     blocked = audio.resample(x, 44100)
-    whole = audio._resample_whole(x, 44100, 16000)
+    whole = resampling._resample_whole(x, 44100, 16000)
     assert np.sqrt(np.mean((blocked - whole) ** 2)) < 0.01 * np.sqrt(np.mean(whole ** 2))   # -40 dB
     assert np.abs(blocked - whole).max() < 0.01
 
@@ -36,6 +36,21 @@ def test_speech_band_survives_and_aliases_do_not():
     assert freqs[np.argmax(spec)] == pytest.approx(1000, abs=2)
     alias = spec[np.abs(freqs - 4000) < 20].max()                       # 12 kHz would fold to 4 kHz
     assert alias < 1e-2 * spec.max()
+
+
+@pytest.mark.parametrize("rate", [44100, 48000, 22050, 8000, 16000])
+def test_a_stream_of_pieces_resamples_as_the_whole_signal(rate):
+    """Decoded blocks of any size, pushed as they come, give the samples
+    resample gives for the whole signal."""
+    rng = np.random.default_rng(rate)
+    x = (rng.normal(size=int(rate * 14.3)) * 0.1).astype(np.float32)
+    stream, out, i = resampling.StreamResampler(rate), [], 0
+    while i < len(x):
+        k = int(rng.integers(1, 90000))
+        out.append(stream.push(x[i:i + k]))
+        i += k
+    out.append(stream.finish())
+    assert np.array_equal(np.concatenate(out), resampling.resample(x, rate))
 
 
 def write_pcm(tmp_path, rate, width, channels, seconds, name="long.wav"):
@@ -66,30 +81,55 @@ def test_short_wav_read_without_praat_gives_praats_samples(tmp_path, rate, width
     path = write_pcm(tmp_path, rate, width, channels, 3.5, "short.wav")
     praat = parselmouth.Sound(str(path))
     expected = audio.from_samples(praat.values, praat.sampling_frequency).samples
-    read = wavstream.read_wav(path)
-    assert read is not None and not isinstance(read.samples, wavstream.WavSamples)
-    assert np.array_equal(read.samples, expected)
+    samples, read_rate, cut = wavstream.read_wav(path)
+    assert read_rate == rate and not cut and not isinstance(samples, wavstream.WavSamples)
+    assert np.array_equal(audio.from_samples(samples, rate).samples, expected)
     assert np.array_equal(audio.load(path).samples, expected)
 
 
 @pytest.mark.parametrize("rate,width,channels", [(44100, 2, 2), (16000, 3, 1), (22050, 1, 1)])
 def test_long_wav_read_block_by_block_gives_praats_samples(tmp_path, rate, width, channels):
     """A long WAV file is read a block at a time (bounded memory), with the
-    samples Praat's reader gives; a long file cut short is left to Praat,
-    which says so."""
+    samples Praat's reader gives; so is a long file cut short, whose missing
+    end is silence (as in Praat), with a note saying so."""
     import parselmouth
 
     from addon.engine import wavstream
 
     path = write_pcm(tmp_path, rate, width, channels, wavstream.LONG + 1)
-    streamed = wavstream.read_wav(path)
-    assert streamed is not None
+    streamed, read_rate, cut_short = wavstream.read_wav(path)
+    assert isinstance(streamed, wavstream.WavSamples) and read_rate == 16000 and not cut_short
     praat = parselmouth.Sound(str(path))
     expected = audio.from_samples(praat.values, praat.sampling_frequency).samples
     assert np.array_equal(audio.load(path).samples, expected)
-    assert np.array_equal(streamed.samples, expected)
+    assert np.array_equal(streamed[0:len(streamed)], expected)
     raw = path.read_bytes()
     cut = tmp_path / "cut.wav"
-    cut.write_bytes(raw[:len(raw) * 2 // 3])
-    assert wavstream.read_wav(cut) is None
-    assert "cut short" in " ".join(audio.load(cut).notes)
+    cut.write_bytes(raw[:44 + (len(raw) // 3 // width // channels * channels + 1) * width])  # inside a frame
+    snd = audio.load(cut)
+    assert isinstance(snd.samples, wavstream.WavSamples)
+    assert "cut short" in " ".join(snd.notes)
+    praat = parselmouth.Sound(str(cut))
+    expected = audio.from_samples(praat.values, praat.sampling_frequency).samples
+    assert len(snd.samples) == len(expected)
+    assert np.abs(snd.samples[0:len(snd.samples)] - expected).max() < 1e-6
+
+
+@pytest.mark.parametrize("width", [1, 2, 3])
+def test_short_wav_cut_short_reads_as_praat_reads_it(tmp_path, width):
+    """The frames a WAV file cut short holds, then silence up to the length
+    its header gives (as Praat reads it), with a note; no Praat needed."""
+    import parselmouth
+
+    from addon.engine import wavstream
+
+    raw = write_pcm(tmp_path, 22050, width, 2, 3.0).read_bytes()
+    cut = tmp_path / "cut.wav"
+    cut.write_bytes(raw[:44 + (len(raw) // 4 // width // 2 * 2 + 1) * width])   # inside a frame
+    samples, rate, cut_short = wavstream.read_wav(cut)
+    assert cut_short and rate == 22050 and len(samples) == 3 * 22050
+    assert np.all(samples[-22050 // 5:] == 0)
+    snd = audio.load(cut)
+    assert any(str(cut) in n and "cut short" in n for n in snd.notes)
+    praat = parselmouth.Sound(str(cut))
+    assert np.array_equal(snd.samples, audio.from_samples(praat.values, praat.sampling_frequency).samples)

@@ -403,17 +403,17 @@ def _audio_case(tmp_path, case):
         return p, ["empty (0 bytes)"]
     if case == "header-only":
         p.write_bytes(raw[:30])
-        return p, ["cannot read audio file", "Use WAV, FLAC, MP3 or AIFF"]
+        return p, ["cannot read audio file", "it is a WAV file", "cannot be decoded"]
     if case == "text":
         p.write_text("this is not audio")
-        return p, ["cannot read audio file", "Not an audio file. Use"]
+        return p, ["cannot read audio file", "it is a text file, not audio. Use WAV, FLAC, Ogg"]
     if case == "random":
         p.write_bytes(np.random.default_rng(1).bytes(4000))
         return p, ["cannot read audio file"]
     if case == "ogg":
         p = tmp_path / "line.ogg"
         p.write_bytes(b"OggS\x00\x02" + bytes(200))
-        return p, ["an Ogg file", "convert it to WAV or FLAC"]
+        return p, ["it is an Ogg file (Vorbis or Opus)", "cannot be decoded"]
     if case == "m4a":
         p = tmp_path / "line.m4a"
         p.write_bytes(b"\x00\x00\x00\x20ftypM4A " + bytes(200))

@@ -1,19 +1,34 @@
-"""Audio in: any file Praat can read (WAV, FLAC, MP3, AIFF, ...) or samples
-handed over by a host program (Blender decodes its own sound strips), reduced
-to 16 kHz mono, the rate of the acoustic model."""
+"""Audio in, reduced to 16 kHz mono, the rate of the acoustic model: a file
+(:func:`load`, the one reader of the command line, batch runs, arousal and
+learning) or samples handed over by a host program (:func:`from_samples`:
+Blender decodes its own sound strips).
+
+:func:`load` reads
+
+* plain PCM WAV itself (:mod:`.wavstream`), with the samples Praat gives;
+* WAV of every other kind, FLAC, Ogg Vorbis, Ogg Opus, MP3 and AIFF with
+  soundfile, and M4A/AAC and the sound track of MP4, MOV and MKV/WebM
+  video with PyAV (:mod:`.decoders`), each imported only when a file needs
+  it;
+* without those packages (the Blender extension does not bundle them),
+  WAV, FLAC, MP3 and AIFF with Praat.
+
+Long files of any of these stay out of memory: a long WAV is read from the
+file a stretch at a time, other formats are decoded and resampled a block at
+a time into a temporary file.
+"""
 
 from __future__ import annotations
 
-import math
 import os
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import decoders, wavstream
 from .errors import AudioError
-
-MODEL_RATE = 16000
+from .resampling import MODEL_RATE, resample
 
 
 @dataclass
@@ -34,109 +49,6 @@ class Audio:
         return (clip * 32767.0).astype("<i2").tobytes()
 
 
-def _fast_length(n: int) -> int:
-    """Smallest 2^a 3^b 5^c >= n, a length the FFT handles quickly."""
-    best = 1 << (n - 1).bit_length()
-    p5 = 1
-    while p5 < best:
-        p35 = p5
-        while p35 < best:
-            p = p35
-            while p < n:
-                p *= 2
-            best = min(best, p)
-            p35 *= 3
-        p5 *= 5
-    return best
-
-
-def _resample_whole(samples: np.ndarray, rate: float, target: int) -> np.ndarray:
-    n = len(samples)
-    n_out = int(round(n * target / rate))
-    if float(rate) == int(rate):
-        # Both padded lengths whole multiples of the rates' ratio: the new
-        # grid is exactly the old one rescaled, with no drift along the clip.
-        g = math.gcd(int(rate), target)
-        down, up = int(rate) // g, target // g
-        m = _fast_length(-(-(n + int(rate // 10)) // down))
-        pad, pad_out = down * m, up * m
-    else:
-        pad = _fast_length(n + int(rate // 10))
-        pad_out = int(round(pad * target / rate))
-    spec = np.fft.rfft(samples, pad)
-    keep = pad_out // 2 + 1
-    if keep <= len(spec):
-        spec = spec[:keep]
-    else:
-        spec = np.concatenate([spec, np.zeros(keep - len(spec), spec.dtype)])
-    out = np.fft.irfft(spec, pad_out) * (pad_out / pad)
-    return out[:n_out]
-
-
-#: Blocks for long signals: FFTs of ~2^17 samples stay in cache, and the
-#: margins (discarded) keep each block's edges away from the output.
-_BLOCK = 1 << 17
-_MARGIN = 4096
-
-
-def resample(samples: np.ndarray, rate: float, target: int = MODEL_RATE) -> np.ndarray:
-    """Band-limited resampling by FFT (the spectrum is cut at the new Nyquist
-    frequency).  Zero padding to a fast length avoids slow prime-length FFTs
-    and wrap-around at the ends.  Long signals at an integer rate go block by
-    block, each block cut on a sample both rates share, with overlapping
-    margins thrown away: the same result, several times faster."""
-    samples = np.asarray(samples)
-    if samples.dtype != np.float32:
-        samples = samples.astype(np.float64)
-    if int(round(rate)) == target:
-        return samples.astype(np.float32)
-    n = len(samples)
-    if n == 0:
-        return np.zeros(0, np.float32)
-    if n <= 2 * _BLOCK or float(rate) != int(rate):
-        return _resample_whole(samples.astype(np.float64), rate, target).astype(np.float32)
-    # Converted to 64 bits a block at a time: no 64-bit copy of a long signal.
-    return resample_blocks(lambda a, b: samples[a:b].astype(np.float64), n, int(rate), target)
-
-
-def resample_blocks(read, n: int, rate: int, target: int = MODEL_RATE) -> np.ndarray:
-    """:func:`resample` of a long signal of ``n`` samples at an integer
-    rate, read block by block: ``read(a, b)`` returns samples a..b as
-    float64 (a file can be read a piece at a time)."""
-    blocks = BlockResampler(read, n, rate, target)
-    out = np.empty(blocks.n_out, np.float32)
-    for j in range(blocks.n_blocks):
-        o0 = j * blocks.per_block
-        y = blocks.block(j)
-        out[o0:o0 + len(y)] = y
-    return out
-
-
-class BlockResampler:
-    """The blocks :func:`resample` cuts a long signal at an integer rate
-    into: block ``j`` of the output (``per_block`` samples, the last one
-    shorter) from the input samples ``read(a, b)`` returns (float64)."""
-
-    def __init__(self, read, n: int, rate: int, target: int = MODEL_RATE):
-        g = math.gcd(int(rate), target)
-        self.read, self.n, self.rate, self.target = read, n, int(rate), target
-        self.down, self.up = int(rate) // g, target // g     # 441 input samples -> 160 output samples
-        self.step = self.down * max(1, _BLOCK // self.down)
-        self.margin = self.down * -(-_MARGIN // self.down)
-        self.n_out = int(round(n * target / rate))
-        self.per_block = self.step // self.down * self.up
-        self.n_blocks = -(-n // self.step)
-
-    def block(self, j: int) -> np.ndarray:
-        start = j * self.step
-        a, b = max(0, start - self.margin), min(self.n, start + self.step + self.margin)
-        y = _resample_whole(self.read(a, b), self.rate, self.target)
-        o0 = start // self.down * self.up
-        take = min(self.per_block, self.n_out - o0)
-        off = (start - a) // self.down * self.up
-        return y[off:off + take].astype(np.float32)
-
-
 def from_samples(samples: np.ndarray, rate: float) -> Audio:
     """Audio from an array shaped (n,) or (n, channels), any rate."""
     arr = np.asarray(samples, dtype=np.float32)
@@ -150,10 +62,60 @@ def from_samples(samples: np.ndarray, rate: float) -> Audio:
     return Audio(resample(arr, rate), MODEL_RATE)
 
 
+#: What the reader reads, for messages.
+FORMATS = "WAV, FLAC, Ogg Vorbis or Opus, MP3, AIFF, M4A/AAC or a video with sound (MP4, MOV, MKV)"
+
+#: File kinds known by their first bytes: (test, what it is, the decoders to try in order).  Opus goes to
+#: FFmpeg first (twice as fast as libsndfile on it: bench/decode_formats.py), and so does MP3: the
+#: libmpg123 in soundfile's wheel writes its complaints about some frames straight to the terminal (the
+#: samples are the same).
+_SOUND = ("soundfile", "av")
+_VIDEO = ("av",)
+_KINDS = (
+    (lambda h: h[:4] == b"RIFF" and h[8:12] == b"WAVE", "a WAV file", _SOUND),
+    (lambda h: h[:4] in (b"RF64", b"BW64"), "a WAV file (RF64)", _SOUND),
+    (lambda h: h[:4] == b"RIFF" and h[8:12] == b"AVI ", "an AVI video", _VIDEO),
+    (lambda h: h[:4] == b"OggS" and h[28:36] == b"OpusHead", "an Ogg Opus file", ("av", "soundfile")),
+    (lambda h: h[:4] == b"OggS" and h[28:35] == b"\x01vorbis", "an Ogg Vorbis file", _SOUND),
+    (lambda h: h[:4] == b"OggS", "an Ogg file (Vorbis or Opus)", _SOUND),
+    (lambda h: h[:4] == b"fLaC", "a FLAC file", _SOUND),
+    (lambda h: h[:3] == b"ID3" or (h[0] == 0xFF and (h[1] & 0xE0) == 0xE0 and (h[1] & 0x06) != 0), "an MP3 file",
+     ("av", "soundfile")),
+    (lambda h: h[0] == 0xFF and (h[1] & 0xF6) == 0xF0, "an AAC file (ADTS)", _VIDEO),
+    (lambda h: h[:4] == b"FORM" and h[8:12] in (b"AIFF", b"AIFC"), "an AIFF file", _SOUND),
+    (lambda h: h[:4] == b"caff", "a CAF file", _SOUND),
+    (lambda h: h[4:8] == b"ftyp", "an MP4/M4A/MOV file", _VIDEO),
+    (lambda h: h[4:8] in (b"moov", b"mdat", b"wide", b"free", b"skip"), "a QuickTime (MOV) file", _VIDEO),
+    (lambda h: h[:4] == b"\x1aE\xdf\xa3", "a Matroska/WebM file", _VIDEO),
+    (lambda h: h[:4] == b"0&\xb2u", "a Windows Media file", _VIDEO),
+)
+#: Praat's readers (when the decoders are not installed).
+_PRAAT = ("a WAV file", "a FLAC file", "an MP3 file", "an AIFF file", None)
+_INSTALL = {"soundfile": "soundfile", "av": "av (PyAV)"}
+
+
+def _kind(head: bytes) -> tuple[str | None, tuple[str, ...]]:
+    """What a file is by its first bytes, and the decoders to try."""
+    head = head.ljust(64, b"\0")
+    for test, what, order in _KINDS:
+        if test(head):
+            return what, order
+    return None, _SOUND
+
+
+def _looks_like_text(head: bytes) -> bool:
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return bool(text) and all(c.isprintable() or c in "\t\r\n" for c in text)
+
+
 def load(path: str | os.PathLike) -> Audio:
     """Read an audio file and convert it to 16 kHz mono.
 
-    Raises :class:`AudioError` if it is missing, unreadable or empty.
+    Raises :class:`AudioError` if it is missing, unreadable or empty, with
+    one line naming the file and what it is.
     """
     path = os.fspath(path)
     if not os.path.exists(path):
@@ -164,18 +126,59 @@ def load(path: str | os.PathLike) -> Audio:
         raise AudioError(f"audio file is empty (0 bytes): {path}")
     try:
         with open(path, "rb") as fh:
-            head = fh.read(12)
+            head = fh.read(64)
     except OSError as exc:
         raise AudioError(f"cannot read audio file {path}: {exc.strerror or exc}") from None
-    for magic, kind in _UNSUPPORTED:
-        if head.startswith(magic) or (magic == b"ftyp" and head[4:8] == magic):
-            raise AudioError(f"cannot read audio file {path}: it is {kind}, which this reader does not decode; "
-                             "convert it to WAV or FLAC (in Blender, a sound strip of it works)")
-    from .wavstream import read_wav
-
-    wav = read_wav(path)
+    what, order = _kind(head)
+    wav = wavstream.read_wav(path) if what == "a WAV file" else None
     if wav is not None:
-        return wav
+        samples, rate, cut = wav
+        snd = Audio(samples, rate) if isinstance(samples, wavstream.WavSamples) else from_samples(samples, rate)
+        if cut:
+            snd.notes.append(f"audio file {path}: {_CUT_SHORT}")
+        return snd
+    missing, reasons = [], []
+    for package in order:
+        try:
+            samples, rate, cut = decoders.decode(path, package)
+        except decoders.Missing:
+            missing.append(package)
+            continue
+        except decoders.Undecodable as exc:
+            reasons.append(str(exc))
+            continue
+        if isinstance(samples, decoders.DiskSamples):
+            snd = Audio(samples, rate)
+        else:
+            try:
+                snd = from_samples(samples, rate)
+            except AudioError as exc:    # no samples, or samples that are not numbers
+                raise AudioError(f"cannot read audio file {path}: it is {what or 'a sound file'}, but {exc}") \
+                    from None
+        if cut:
+            snd.notes.append(f"audio file {path}: {cut}")
+        return snd
+    if missing and what in _PRAAT:
+        return _praat(path, what)
+    if what is None and _looks_like_text(head):
+        what = "a text file, not audio"
+    if missing and not reasons:
+        package = "soundfile" if "soundfile" in missing else missing[0]    # the smaller, where it reads the file
+        raise AudioError(f"cannot read audio file {path}: it is {what}; reading it needs the Python package "
+                         f"{_INSTALL[package]} (pip install {package}), or convert it to WAV or FLAC "
+                         "(in Blender, a sound strip of it works)")
+    if what is None:
+        raise AudioError(f"cannot read audio file {path}: it is not a sound file ({reasons[0]}). Use {FORMATS}")
+    if what.startswith("a text file"):
+        raise AudioError(f"cannot read audio file {path}: it is {what}. Use {FORMATS}")
+    raise AudioError(f"cannot read audio file {path}: it is {what}, but it cannot be decoded ({reasons[0]})")
+
+
+_CUT_SHORT = "the file is cut short (truncated); the missing end was read as silence"
+
+
+def _praat(path: str, what: str | None) -> Audio:
+    """The file read by Praat (WAV, FLAC, MP3, AIFF and Praat's own formats)."""
     import parselmouth
 
     try:
@@ -184,18 +187,14 @@ def load(path: str | os.PathLike) -> Audio:
             sound = parselmouth.Sound(path)
     except Exception as exc:  # Praat says why in its own words
         reason = str(exc).strip().splitlines()[0].strip().rstrip(".") if str(exc).strip() else type(exc).__name__
-        raise AudioError(f"cannot read audio file {path}: {reason}. "
-                         "Use WAV, FLAC, MP3 or AIFF.") from None
+        it = f"it is {what} that Praat cannot read ({reason})" if what else reason
+        raise AudioError(f"cannot read audio file {path}: {it}. "
+                         "Use WAV, FLAC, MP3 or AIFF (other formats need the Python packages soundfile and av).") \
+            from None
     snd = from_samples(sound.values, sound.sampling_frequency)
     for w in caught:
         msg = " ".join(str(w.message).split())
         if "too small" in msg or "Missing samples" in msg:
-            msg = "the file is cut short (truncated); the missing end was read as silence"
+            msg = _CUT_SHORT
         snd.notes.append(f"audio file {path}: {msg}")
     return snd
-
-
-#: Containers Praat cannot read, known by their first bytes, for a clearer
-#: message than Praat's "Not an audio file".
-_UNSUPPORTED = ((b"OggS", "an Ogg file (Vorbis or Opus)"), (b"ftyp", "an MP4/M4A file (AAC)"),
-                (b"\x1aE\xdf\xa3", "a Matroska/WebM file"), (b"0&\xb2u", "a Windows Media file"))

@@ -49,7 +49,8 @@ def _parser() -> argparse.ArgumentParser:
                                  description="Emotive lip sync: audio + transcript -> viseme curves.")
     sub = ap.add_subparsers(dest="command", required=True)
     a = sub.add_parser("analyze", help="align a line of dialogue and write its viseme curves")
-    a.add_argument("audio", help="WAV, FLAC, MP3 or AIFF file, any rate, mono or stereo")
+    a.add_argument("audio", help="audio file, any rate and channels: WAV, FLAC, AIFF, Ogg Vorbis or Opus, MP3, "
+                                 "M4A/AAC, or a video (MP4, MOV, MKV)")
     src = a.add_mutually_exclusive_group()
     src.add_argument("--transcript", metavar="FILE",
                      help="text file with what is said (UTF-8; UTF-16 with a BOM, else Windows-1252)")

@@ -7,10 +7,12 @@ it works on (a window, a minute of levels or pitch) from the file, reduced
 to 16 kHz mono block by block, so memory does not grow with the length.
 The samples are those Praat would give (integers scaled to [-1, 1),
 channels averaged) and the resampling is the same as
-:func:`.audio.resample`.
-A shorter plain PCM WAV is read whole, with the same samples.  Anything
-else (other formats, WAV the ``wave`` module cannot read, a file cut short)
-is left to Praat, which says what is wrong with it.
+:func:`.resampling.resample`.
+A shorter plain PCM WAV is read whole, with the same samples.  A file cut
+short (its header promises more frames than it holds) is read as Praat
+reads it: the missing end is silence.  Anything else (other formats, WAV
+the ``wave`` module cannot read) is left to the other decoders
+(:mod:`.audio`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import wave
 
 import numpy as np
 
-from .audio import MODEL_RATE, Audio, BlockResampler
+from .resampling import MODEL_RATE, BlockResampler
 
 #: Files shorter than this (s) are read whole, by Praat.
 LONG = 60.0
@@ -49,7 +51,7 @@ def _decode(raw: bytes, width: int, channels: int) -> np.ndarray:
 class WavSamples:
     """The 16 kHz mono samples of a long WAV file, read (and resampled) from
     the file when a stretch of them is asked for: ``samples[a:b]`` is a
-    float32 array, the same samples :func:`.audio.resample` would give for
+    float32 array, the same samples :func:`.resampling.resample` would give for
     the whole file.  The whole signal is never held, so memory does not grow
     with the recording's length.  Slices only (step 1); ``np.asarray`` and
     ``astype`` read everything."""
@@ -78,10 +80,8 @@ class WavSamples:
         with wave.open(self.path, "rb") as w:
             w.setpos(a)
             raw = w.readframes(b - a)
-        frame_bytes = self.width * self.channels
-        if len(raw) < (b - a) * frame_bytes:  # the file changed since it was opened
-            raw = raw[:len(raw) // frame_bytes * frame_bytes] + bytes((b - a) * frame_bytes - len(raw))
-        return _decode(raw, self.width, self.channels)
+        # Past the end of a file cut short (or changed since it was opened): silence.
+        return _decode(_whole_frames(raw, b - a, self.width, self.channels), self.width, self.channels)
 
     def _read_f64(self, a: int, b: int) -> np.ndarray:
         return self._read(a, b).astype(np.float64)
@@ -116,44 +116,75 @@ class WavSamples:
         return np.asarray(self).astype(dtype)
 
 
-def _plain_pcm(path: str) -> tuple[int, int, int, int] | None:
-    """(frames, rate, sample width, channels) of a complete plain PCM WAV
-    file, or None for anything else."""
+#: A data chunk this long is a placeholder (a recorder that never went back
+#: to write the size): the file holds what it holds, and nothing is missing.
+_UNKNOWN_SIZE = 0xFFFFFFFF - 64
+
+
+def _plain_pcm(path: str) -> tuple[int, int, int, int, bool] | None:
+    """(frames, rate, sample width, channels, cut short) of a plain PCM WAV
+    file, or None for anything else.  A file cut short (fewer frames than
+    its header promises) keeps the promised length, as Praat reads it."""
     try:
         with wave.open(path, "rb") as w:
             n, rate, width, channels = w.getnframes(), w.getframerate(), w.getsampwidth(), w.getnchannels()
             if width not in _SCALE or rate <= 0 or channels < 1 or n < 1:
                 return None
-            # The file holds every frame its header promises (else Praat
-            # reads it and says it is cut short).
             w.setpos(n - 1)
-            if len(w.readframes(1)) < width * channels:
-                return None
+            if len(w.readframes(1)) == width * channels:
+                return n, rate, width, channels, False
+            held = _frames_held(w, n, width * channels)
     except (wave.Error, EOFError, OSError, ValueError):
         return None
-    return n, rate, width, channels
+    if held < 1:
+        return None
+    if n * width * channels >= _UNKNOWN_SIZE:
+        return held, rate, width, channels, False
+    return n, rate, width, channels, True
 
 
-def read_wav(path: str | os.PathLike) -> Audio | None:
-    """A complete plain PCM WAV file as 16 kHz mono :class:`Audio`: a long
-    one (:data:`LONG` s or more) left on disk, its samples read from the file
-    as they are needed (:class:`WavSamples`), a shorter one read whole with
-    the samples Praat would give, without loading Praat (the pitch tracker
-    may be loading it on the other core meanwhile).  None for anything else."""
+def _frames_held(w: wave.Wave_read, n: int, frame_bytes: int) -> int:
+    """How many of its ``n`` promised frames the file holds (found by
+    bisection: frame k is there if reading it gives a whole frame)."""
+    lo, hi = 0, n - 1           # frame hi is missing; frames below lo are there
+    while lo < hi:
+        mid = (lo + hi) // 2
+        w.setpos(mid)
+        if len(w.readframes(1)) == frame_bytes:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+def read_wav(path: str | os.PathLike) -> tuple[np.ndarray | WavSamples, int, bool] | None:
+    """A plain PCM WAV file as (mono samples, their rate, cut short): a
+    long one (:data:`LONG` s or more) left on disk as 16 kHz
+    :class:`WavSamples` read from the file as they are needed, a shorter one
+    read whole at its own rate (float32), with the samples Praat would give,
+    without loading Praat (the pitch tracker may be loading it on the other
+    core meanwhile).  A file cut short ends in silence.  None for anything
+    else."""
     path = os.fspath(path)
     head = _plain_pcm(path)
     if head is None:
         return None
-    n, rate, width, channels = head
+    n, rate, width, channels, cut = head
     if n / rate >= LONG:
-        return Audio(WavSamples(path, n, rate, width, channels), MODEL_RATE)
+        return WavSamples(path, n, rate, width, channels), MODEL_RATE, cut
     try:
         with wave.open(path, "rb") as w:
             raw = w.readframes(n)
     except (wave.Error, EOFError, OSError, ValueError):
         return None
-    if len(raw) < n * width * channels:
-        return None
-    from .audio import from_samples
+    return _decode(_whole_frames(raw, n, width, channels), width, channels), rate, cut
 
-    return from_samples(_decode(raw, width, channels), rate)
+
+def _whole_frames(raw: bytes, n: int, width: int, channels: int) -> bytes:
+    """``raw`` filled up to ``n`` frames with silence (128 in 8-bit files,
+    which are unsigned; 0 in the others): the whole samples of a last frame
+    cut short are kept, as Praat keeps them."""
+    if len(raw) == n * width * channels:
+        return raw
+    raw = raw[:len(raw) // width * width]
+    return raw + (b"\x80" if width == 1 else b"\0") * (n * width * channels - len(raw))
