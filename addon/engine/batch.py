@@ -509,7 +509,8 @@ def check_audio_path(path: str | os.PathLike) -> None:
 
 
 def line_text(line: Line) -> str | None:
-    """The words of a line (None when only an alignment is given)."""
+    """The words of a line (None when only an alignment is given, or when
+    there is no transcript at all: the words are then recognised)."""
     if line.text is not None:
         return line.text
     from .language.text import read_text_file
@@ -522,8 +523,7 @@ def line_text(line: Line) -> str | None:
         side = Path(line.audio).with_suffix(".txt")
         if side.is_file():
             return read_text_file(side)[0]
-    raise LipSyncError("no transcript: give a 'transcript', 'text' or 'alignment' column "
-                       "(or put a .txt beside the audio)")
+    return None
 
 
 def transcript_file(line: Line) -> str | None:

@@ -131,9 +131,18 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"warning: {w}", file=sys.stderr)
         elif args.text is not None:
             text = args.text
-        if text is None and not args.alignment:
-            raise LipSyncError("give the transcript with --transcript FILE or --text \"...\" "
-                               "(or an alignment with --alignment FILE)")
+        elif not args.alignment:
+            # The transcript beside the audio (line.txt for line.wav), else the words are recognised.
+            side = os.path.splitext(args.audio)[0] + ".txt"
+            if os.path.isfile(side):
+                args.transcript = side
+                text, warnings = read_text_file(side)
+                if not text.strip():
+                    raise LipSyncError(f"the transcript is empty: {side} holds no text")
+                if not args.quiet:
+                    print(f"transcript: {side}")
+                for w in warnings:
+                    print(f"warning: {w}", file=sys.stderr)
         t0 = time.perf_counter()
         result = analyze(args.audio, text, alignment=args.alignment, viseme_set=args.viseme_set,
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
@@ -160,7 +169,24 @@ def main(argv: list[str] | None = None) -> int:
         for note in result.notes:
             if note not in result.warnings:
                 print("note:", note)
+        beyond = script_counts(al)
+        if beyond:
+            print(beyond)
     return 0
+
+
+def script_counts(al) -> str:
+    """How far the take strayed from its script, in one line ("" when it did not)."""
+    parts = []
+    if al.words and all(w.recognized for w in al.words):
+        parts.append(f"{len(al.words)} word{'s' if len(al.words) != 1 else ''} recognised (no transcript)")
+    unheard = sum(not w.spoken for w in al.words)
+    if unheard:
+        parts.append(f"{unheard} word{'s' if unheard != 1 else ''} of the transcript not heard")
+    if al.unscripted:
+        seconds = sum(b - a for a, b, _ in al.unscripted)
+        parts.append(f"{seconds:.1f} s of unscripted speech")
+    return "; ".join(parts)
 
 
 def _learn(args) -> int:

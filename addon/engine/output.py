@@ -23,6 +23,19 @@ from .errors import LipSyncError
 SCHEMA_VERSION = 1
 
 
+def _word(w) -> dict:
+    """A word of the JSON document.  ``spoken`` (false: a transcript word
+    the audio does not hold) and ``recognized`` (true: heard, not read in a
+    transcript) appear only when they differ from a transcript word's."""
+    out = {"word": w.text, "start": round(w.start, 4), "end": round(w.end, 4),
+           "estimated": bool(w.estimated), "pronunciation": w.source or None}
+    if not w.spoken:
+        out["spoken"] = False
+    if w.recognized:
+        out["recognized"] = True
+    return out
+
+
 @dataclass
 class Result:
     """Everything :func:`.pipeline.analyze` found, and the curves."""
@@ -55,9 +68,7 @@ class Result:
             "emotion": self.emotion,
             "coarticulation": self.model,
             "visemes": list(self.viseme_set.visemes),
-            "words": [{"word": w.text, "start": round(w.start, 4), "end": round(w.end, 4),
-                       "estimated": bool(w.estimated), "pronunciation": w.source or None}
-                      for w in al.words],
+            "words": [_word(w) for w in al.words],
             "phonemes": [{"phone": p.phone, "start": round(p.start, 4), "end": round(p.end, 4),
                           "word_index": p.word_index,
                           "pitch_hz": None if not np.isfinite(f) else round(float(f), 2),
@@ -70,6 +81,7 @@ class Result:
             "notes": self.notes,
             "arousal": self.arousal.to_dict() if self.arousal is not None else None,
             "emotions": self.emotions or [{"emotion": self.emotion, "time": 0.0, "fade": None}],
+            "unscripted": [{"start": round(a, 4), "end": round(b, 4), "text": t} for a, b, t in al.unscripted],
         }
 
     def write_json(self, path: str | os.PathLike) -> None:
