@@ -37,26 +37,18 @@ DECODER_OPTIONS = dict(ds=2, fwdflat=False, bestpath=False, maxhmmpf=1000, maxwp
                        beam=1e-40, wbeam=1e-30, pbeam=1e-40)
 
 _VARIANT = re.compile(r"\(\d+\)$")
-_decoders: dict[int, object] = {}
-_searches: dict[int, str] = {}
-
-
-def _model_dir() -> str:
-    import pocketsphinx
-
-    return os.path.join(os.path.dirname(pocketsphinx.__file__), "model", "en-us")
+_loaded: list = []   # [decoder, its language-model search], once loaded
 
 
 def _decoder():
-    """One recogniser per process (loading the language model takes a while)."""
+    """The recogniser, loaded once (the language model takes a while); the
+    worker processes are forked with it loaded and use their own copy."""
     import pocketsphinx
 
-    pid = os.getpid()
-    if pid not in _decoders:
-        _decoders.clear()
-        _decoders[pid] = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **DECODER_OPTIONS)
-        _searches[pid] = _decoders[pid].current_search()
-    return _decoders[pid]
+    if not _loaded:
+        decoder = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **DECODER_OPTIONS)
+        _loaded[:] = [decoder, decoder.current_search()]
+    return _loaded
 
 
 def _is_word(name: str) -> bool:
@@ -66,8 +58,7 @@ def _is_word(name: str) -> bool:
 def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
     """The words of one chunk: (text, [(phone, first frame, end frame)],
     phones estimated).  Frames count from the chunk's start."""
-    decoder = _decoder()
-    search = _searches[os.getpid()]
+    decoder, search = _decoder()
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
         decoder.start_utt()
@@ -116,6 +107,9 @@ def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: Al
     phone's ``word_index`` counts in the returned words."""
     settings = settings or AlignSettings()
     spans = [(a, b) for a, b in spans if b - a >= 0.05]
+    if not spans:
+        return [], []
+    _decoder()  # loaded before the workers are forked, which share it
     pool = _pool(settings) if len(spans) > 1 else None
     key = id(audio)
     _SHARED[key] = audio
