@@ -79,9 +79,18 @@ class Summary:
     timings: dict = field(default_factory=dict)
     also: list[str] = field(default_factory=list)   # the character's other meshes keyed with it
     warnings: list[str] = field(default_factory=list)  # the engine's (words of the transcript left out ...)
+    unheard_words: int = 0          # transcript words the take does not hold (left unspoken)
+    unscripted_seconds: float = 0.0  # speech the transcript leaves out, animated from recognition
+    recognized: bool = False        # no transcript: every word was recognised
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
+        if self.recognized:
+            est += f", {self.words} words recognised (no transcript)"
+        if self.unheard_words:
+            est += f", {self.unheard_words} word{'s' if self.unheard_words != 1 else ''} not heard"
+        if self.unscripted_seconds:
+            est += f", {self.unscripted_seconds:.1f} s unscripted"
         again = " (replacing the previous lip sync)" if self.replaced else ""
         also = f" (and on {', '.join(self.also)})" if self.also else ""
         return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys{also}, "
@@ -345,7 +354,10 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     words = result.alignment.words
     return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
                    len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
-                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings))
+                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings),
+                   sum(1 for w in words if not w.spoken),
+                   sum(b - a for a, b, _ in result.alignment.unscripted),
+                   bool(words) and all(w.recognized for w in words))
 
 
 def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:
