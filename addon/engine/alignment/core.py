@@ -117,5 +117,5 @@ def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 
     unheard = sum(not w.spoken for w in script) / max(1, len(script))
     if unheard > max_estimated_share and len(script) > 3:
         raise AlignmentError(
-            f"{unheard:.0%} of the transcript's words were not heard in the audio: "
+            f"{unheard:.0%} of the transcript's words could not be aligned to the audio nor heard in it: "
             "does the transcript belong to this recording?")
