@@ -5,6 +5,7 @@ is recognised and animated."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 from addon.engine import audio as audio_mod
+from addon.engine.language.phonemes import VOWELS
 from addon.engine.pipeline import analyze
 from conftest import FIXTURES, ROOT, SAMPLE
 
@@ -45,17 +47,16 @@ def test_audio_alone_is_recognised_and_animated():
     assert not _active(r, 0.0, max(0.0, first - 0.15)).any()
 
 
-def test_recognised_speech_moves_the_mouth_where_the_transcript_does():
+def test_recognised_speech_opens_the_mouth_on_vowels_and_rests_in_silence():
     snd = audio_mod.load(HELLO)
     heard, read = analyze(snd, None), analyze(snd, HELLO_TEXT)
-    a = heard.curves.max(axis=1) >= OPEN
-    b = read.curves.max(axis=1) >= OPEN
-    assert (a == b).mean() >= 0.7   # 0.74 measured: recognition misses some short words
-    # and the lips close on some of the transcript's /p b m/
-    closes = [p for p in read.alignment.phones if p.phone in {"P", "B", "M"}]
-    shut = [heard.closure[(heard.times >= p.start - 0.03) & (heard.times < p.end + 0.03)].max() >= 0.5
-            for p in closes]
-    assert np.mean(shut) >= 0.4   # 0.42 measured on this synthetic voice
+    vowels = [p for p in read.alignment.phones if p.phone in VOWELS]
+    shown = [_active(heard, p.start, p.end).mean() >= 0.5 for p in vowels]
+    assert np.mean(shown) >= 0.5   # 0.62 on this synthetic voice; 0.89-0.96 on recorded speech (bench/offscript.py)
+    near = np.zeros(len(heard.times), bool)
+    for w in read.alignment.words:
+        near |= (heard.times >= w.start - 0.2) & (heard.times < w.end + 0.2)
+    assert (heard.curves[~near].max(axis=1) < OPEN).mean() >= 0.9
 
 
 def test_matching_transcript_output_has_no_new_marks():
@@ -137,7 +138,21 @@ def test_cli_counts_words_not_heard(tmp_path):
 def test_batch_line_without_transcript_is_recognised(tmp_path):
     shutil.copy(FIXTURES / "bob_map.wav", tmp_path / "line.wav")
     (tmp_path / "m.csv").write_text("audio\nline.wav\n", encoding="utf-8")
-    p = _cli("batch", tmp_path / "m.csv")
+    p = _cli("batch", tmp_path / "m.csv")   # line 2 of the manifest: its first line is the header
     assert p.returncode == 0, p.stderr
     words = json.loads((tmp_path / "line.json").read_text())["words"]
     assert words and all(w["recognized"] for w in words)
+    assert re.search(rf"line 2 \(.*line\.wav\): {len(words)} words? recognised \(no transcript\)", p.stdout), p.stdout
+
+
+def test_batch_counts_words_not_heard_per_line(tmp_path):
+    shutil.copy(HELLO, tmp_path / "a.wav")
+    shutil.copy(FIXTURES / "bob_map.wav", tmp_path / "b.wav")
+    (tmp_path / "m.csv").write_text(
+        "audio,text\n"
+        "a.wav,Hello! My name is Bob and I'm very happy to meet you. purple elephants dance quietly tonight\n"
+        "b.wav,Bob bought a map.\n", encoding="utf-8")
+    p = _cli("batch", tmp_path / "m.csv", "--workers", "1")
+    assert p.returncode == 0, p.stderr
+    assert re.search(r"line 2 \(.*a\.wav\): 5 words of the transcript not heard", p.stdout), p.stdout
+    assert "line 3" not in p.stdout

@@ -113,6 +113,7 @@ class Outcome:
     result: object = None               # the pipeline.Result while it is being written
     record: dict | None = None          # what the result was made from, while it is being written
     reason: str | None = None           # why a line whose outputs existed was done again
+    beyond: str = ""                    # how far the take strayed from its script (output.beyond_script)
 
 
 # ---------------------------------------------------------------------------
@@ -839,6 +840,9 @@ def run(manifest: str | os.PathLike, defaults: Defaults | None = None, *, format
             stream = run_local(todo, defaults, workers)
         for out in stream:
             if out.status == "ok":
+                from .output import beyond_script
+
+                out.beyond = beyond_script(out.result.alignment)
                 try:
                     out.outputs = write_outputs(by_number[out.number], out.result, out.record)
                 except OSError as exc:

@@ -169,24 +169,12 @@ def main(argv: list[str] | None = None) -> int:
         for note in result.notes:
             if note not in result.warnings:
                 print("note:", note)
-        beyond = script_counts(al)
+        from .output import beyond_script
+
+        beyond = beyond_script(al)
         if beyond:
             print(beyond)
     return 0
-
-
-def script_counts(al) -> str:
-    """How far the take strayed from its script, in one line ("" when it did not)."""
-    parts = []
-    if al.words and all(w.recognized for w in al.words):
-        parts.append(f"{len(al.words)} word{'s' if len(al.words) != 1 else ''} recognised (no transcript)")
-    unheard = sum(not w.spoken for w in al.words)
-    if unheard:
-        parts.append(f"{unheard} word{'s' if unheard != 1 else ''} of the transcript not heard")
-    if al.unscripted:
-        seconds = sum(b - a for a, b, _ in al.unscripted)
-        parts.append(f"{seconds:.1f} s of unscripted speech")
-    return "; ".join(parts)
 
 
 def _learn(args) -> int:
@@ -265,6 +253,10 @@ def _batch(args) -> int:
             return 1
     for msg in report.failure_lines():
         print(f"failed: {msg}", file=sys.stderr)
+    if not args.quiet:
+        for o in report.outcomes:
+            if o.beyond:
+                print(f"line {o.number} ({o.label}): {o.beyond}")
     if not args.quiet:
         print(report.summary())
     return 0 if report.ok else 1

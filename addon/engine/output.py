@@ -23,6 +23,21 @@ from .errors import LipSyncError
 SCHEMA_VERSION = 1
 
 
+def beyond_script(al: Alignment) -> str:
+    """How far a take strayed from its script, in one line ("" when it did
+    not): words recognised with no transcript, transcript words not heard,
+    seconds of unscripted speech."""
+    parts = []
+    if al.words and all(w.recognized for w in al.words):
+        parts.append(f"{len(al.words)} word{'s' if len(al.words) != 1 else ''} recognised (no transcript)")
+    unheard = sum(not w.spoken for w in al.words)
+    if unheard:
+        parts.append(f"{unheard} word{'s' if unheard != 1 else ''} of the transcript not heard")
+    if al.unscripted:
+        parts.append(f"{sum(b - a for a, b, _ in al.unscripted):.1f} s of unscripted speech")
+    return "; ".join(parts)
+
+
 def _word(w) -> dict:
     """A word of the JSON document.  ``spoken`` (false: a transcript word
     the audio does not hold) and ``recognized`` (true: heard, not read in a

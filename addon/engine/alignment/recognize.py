@@ -32,9 +32,11 @@ from .speech import frame_levels, speech_mask
 
 #: The recogniser's search.  Scoring every second frame (``ds``) and pruning
 #: harder than pocketsphinx's defaults makes it about four times faster; the
-#: second (alignment) pass places the phones on every frame again.
+#: second (alignment) pass places the phones on every frame again.  Without
+#: the phone lookahead (``pl_window``), which with ``ds`` carries state from
+#: one utterance to the next, a chunk is recognised alike whatever came before.
 DECODER_OPTIONS = dict(ds=2, fwdflat=False, bestpath=False, maxhmmpf=1000, maxwpf=5,
-                       beam=1e-40, wbeam=1e-30, pbeam=1e-40)
+                       beam=1e-40, wbeam=1e-30, pbeam=1e-40, cmn="batch", pl_window=0)
 
 _VARIANT = re.compile(r"\(\d+\)$")
 _loaded: list = []   # [decoder, its language-model search], once loaded
