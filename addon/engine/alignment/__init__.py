@@ -41,8 +41,8 @@ may be a filler sound), :mod:`.bursts` (a stop after silence starts at its
 release burst), :mod:`.core` (:func:`align`), :mod:`.transcript`
 (:func:`align_audio`: a written transcript rather than phones),
 :mod:`.verify` (the transcript checked against the take: words not said,
-speech not scripted) and :mod:`.recognize` (speech with no transcript:
-:func:`recognize`).
+speech not scripted) and :mod:`.recognize` (speech with no transcript,
+:func:`.recognize.recognize`).
 """
 
 from .core import align, check_transcript_matches
@@ -51,8 +51,7 @@ from .model import (FRAME, TYPICAL_DURATION, AlignedPhone, AlignedWord, AlignSet
 from .speech import frame_levels, pauses, speech_mask, unspoken_speech
 from .chunks import plan_chunks
 from .transcript import align_audio, align_file
-from .recognize import recognize
 
-__all__ = ["align", "align_audio", "recognize", "align_file", "check_transcript_matches", "AlignSettings", "Alignment",
+__all__ = ["align", "align_audio", "align_file", "check_transcript_matches", "AlignSettings", "Alignment",
            "AlignedWord", "AlignedPhone", "FRAME", "TYPICAL_DURATION", "typical_duration", "frame_levels", "speech_mask", "pauses",
            "unspoken_speech", "plan_chunks"]
