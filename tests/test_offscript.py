@@ -47,6 +47,14 @@ def test_audio_alone_is_recognised_and_animated():
     assert not _active(r, 0.0, max(0.0, first - 0.15)).any()
 
 
+def test_audio_with_no_words_heard_stays_at_rest():
+    t = np.arange(32000) / 16000
+    tone = (0.3 * np.sin(2 * np.pi * 440 * t) * ((t > 0.5) & (t < 1.5))).astype(np.float32)
+    r = analyze(audio_mod.Audio(tone, 16000), None)
+    assert r.alignment.words == [] and float(r.curves.max()) == 0.0
+    assert any("no words were recognised" in w for w in r.warnings)
+
+
 def test_recognised_speech_opens_the_mouth_on_vowels_and_rests_in_silence():
     snd = audio_mod.load(HELLO)
     heard, read = analyze(snd, None), analyze(snd, HELLO_TEXT)

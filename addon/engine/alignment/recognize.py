@@ -162,6 +162,9 @@ def recognize(audio: Audio, settings: AlignSettings | None = None,
             f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
             "check that the right sound is selected and that it is not muted")
     words, phones = recognize_spans(audio, speech_chunks(mask, settings, audio.duration), settings, progress)
+    if not words:
+        note = "no transcript, and no words were recognised in the audio: the mouth stays at rest"
+        return Alignment(words, phones, audio.duration, [note], [note])
     note = (f"no transcript: the words were recognised from the audio ({len(words)} word"
             f"{'s' if len(words) != 1 else ''}); give a transcript for exact words and timing")
     return Alignment(words, phones, audio.duration, [note], [])

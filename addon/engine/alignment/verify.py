@@ -17,9 +17,9 @@ acoustic evidence:
   words with ``spoken = False`` and no phones, at the end of the word
   before it, so the mouth rests over it; a note and a warning name it.
 * **Unscripted speech.**  Stretches of speech that no spoken word lies on
-  (at least :data:`MIN_UNSCRIPTED` s of it) are recognised; the words heard
-  there are added (``recognized = True``) and the stretch is listed in
-  :attr:`.Alignment.unscripted` with its text.
+  (at least :data:`MIN_UNSCRIPTED` s of it) are recognised; where words
+  are heard (two or more), they are added (``recognized = True``) and the
+  stretch is listed in :attr:`.Alignment.unscripted` with its text.
 """
 
 from __future__ import annotations
@@ -39,6 +39,9 @@ HEARD = 0.5
 EDGE = 3
 #: Speech (s) left uncovered by the spoken words that is recognised.
 MIN_UNSCRIPTED = 0.4
+#: A stretch of unscripted speech holds at least this many words heard, and phones.
+MIN_HEARD_WORDS = 2
+MIN_HEARD_PHONES = 5
 #: Speech within this much of a spoken word is that word's (s).
 WORD_MARGIN = 0.15
 
@@ -164,8 +167,19 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None) -> 
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
     spans = _unscripted(snd, al, mask, settings)
     found, phones = recognize_spans(snd, spans, settings) if spans else ([], [])
-    # Only stretches where words are heard count: breaths and noise are not speech to animate.
-    spans = [(t0, t1) for t0, t1 in spans if any(t0 <= w.start < t1 for w in found)]
+    # Only stretches where words are heard count (:data:`MIN_HEARD_WORDS`,
+    # :data:`MIN_HEARD_PHONES`): a breath, a noise or the edge of a word
+    # the aligner placed a little off is heard as one short word at most.
+    def heard(t0, t1):
+        inside = [w for w in found if t0 <= w.start < t1]
+        return len(inside) >= MIN_HEARD_WORDS and sum(len(w.phones) for w in inside) >= MIN_HEARD_PHONES
+    spans = [(t0, t1) for t0, t1 in spans if heard(t0, t1)]
+    keep = [k for k, w in enumerate(found) if any(t0 <= w.start < t1 for t0, t1 in spans)]
+    renumber = {k: i for i, k in enumerate(keep)}
+    found = [found[k] for k in keep]
+    phones = [p for p in phones if p.word_index in renumber]
+    for p in phones:
+        p.word_index = renumber[p.word_index]
     if spans:
         _merge(al, found, phones)
         for t0, t1 in spans:
