@@ -39,6 +39,8 @@ HEARD = 0.5
 EDGE = 3
 #: Speech (s) left uncovered by the spoken words that is recognised.
 MIN_UNSCRIPTED = 0.4
+#: Runs of uncovered speech closer than this (s) are one stretch.
+JOIN_GAP = 0.5
 #: A stretch of unscripted speech holds at least this many words heard, and phones.
 MIN_HEARD_WORDS = 2
 MIN_HEARD_PHONES = 5
@@ -124,15 +126,23 @@ def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettin
 
 def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings
                 ) -> list[tuple[float, float]]:
-    """Stretches of speech no spoken word lies on, as (start, end) s."""
+    """Stretches of speech no spoken word lies on, as (start, end) s; runs
+    of such speech less than :data:`JOIN_GAP` apart and between the same two
+    words are one stretch (recognised together, in context)."""
     covered = np.zeros(len(mask), bool)
     for w in al.words:
         if w.spoken:
             a = max(0, int((w.start - WORD_MARGIN) / FRAME))
             covered[a:int(np.ceil((w.end + WORD_MARGIN) / FRAME))] = True
+    joined: list[list[int]] = []
+    for i, j in runs(mask & ~covered).tolist():
+        if joined and (i - joined[-1][1]) * FRAME < JOIN_GAP and not covered[joined[-1][1]:i].any():
+            joined[-1][1] = j
+        else:
+            joined.append([i, j])
     spans = []
-    for i, j in runs(mask & ~covered):
-        if (j - i) * FRAME >= MIN_UNSCRIPTED:
+    for i, j in joined:
+        if float(mask[i:j].sum()) * FRAME >= MIN_UNSCRIPTED:
             spans.append((i * FRAME, min(snd.duration, j * FRAME)))
     return spans
 
