@@ -555,10 +555,12 @@ def test_transcript_much_shorter_than_the_speech_warns(tmp_path):
     rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--json", out)
     assert rc == 0, se
     warn = [l for l in se.splitlines() if l.startswith("warning:")]
-    assert len(warn) == 1 and "not covered by the transcript's words" in warn[0], se
+    assert len(warn) == 1 and "of speech not in the transcript" in warn[0], se
     doc = json.loads(out.read_text())
-    assert [w["word"] for w in doc["words"]] == ["bob"]
-    assert any("is the transcript complete" in n for n in doc["notes"])
+    # The speech the transcript leaves out is recognised and animated, and listed.
+    assert [w["word"] for w in doc["words"] if not w.get("recognized")] == ["bob"]
+    assert len(doc["words"]) > 1 and doc["unscripted"]
+    assert any("not in the transcript" in n for n in doc["notes"])
 
 
 def test_complete_transcript_gives_no_warning(tmp_path):

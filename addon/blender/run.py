@@ -83,9 +83,18 @@ class Summary:
     expression_keys: list[str] = field(default_factory=list)   # the shape keys they drove
     no_key: list[str] = field(default_factory=list)          # the preset's units the mesh has no key for
     kept: list[str] = field(default_factory=list)            # expression keys left to the user's animation
+    unheard_words: int = 0          # transcript words the take does not hold (left unspoken)
+    unscripted_seconds: float = 0.0  # speech the transcript leaves out, animated from recognition
+    recognized: bool = False        # no transcript: every word was recognised
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
+        if self.recognized:
+            est += f", {self.words} words recognised (no transcript)"
+        if self.unheard_words:
+            est += f", {self.unheard_words} word{'s' if self.unheard_words != 1 else ''} not heard"
+        if self.unscripted_seconds:
+            est += f", {self.unscripted_seconds:.1f} s unscripted"
         again = " (replacing the previous lip sync)" if self.replaced else ""
         also = f" (and on {', '.join(self.also)})" if self.also else ""
         face = ""
@@ -373,10 +382,14 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
             strip[emotion_markers.STRIP_AROUSAL] = round(float(result.arousal.value), 3)
     t1 = time.perf_counter()
     words = result.alignment.words
-    return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
-                   len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
-                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings),
-                   face["units"], face["names"], face["no_key"], face["kept"])
+    return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
+                   last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
+                   replaced=counts["replaced"], estimated_words=sum(1 for w in words if w.estimated),
+                   words=len(words), timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
+                   warnings=list(result.warnings), expression=face["units"], expression_keys=face["names"],
+                   no_key=face["no_key"], kept=face["kept"], unheard_words=sum(1 for w in words if not w.spoken),
+                   unscripted_seconds=sum(b - a for a, b, _ in result.alignment.unscripted),
+                   recognized=bool(words) and all(w.recognized for w in words))
 
 
 def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames: int) -> dict:

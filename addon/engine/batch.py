@@ -113,6 +113,7 @@ class Outcome:
     result: object = None               # the pipeline.Result while it is being written
     record: dict | None = None          # what the result was made from, while it is being written
     reason: str | None = None           # why a line whose outputs existed was done again
+    beyond: str = ""                    # how far the take strayed from its script (output.beyond_script)
 
 
 # ---------------------------------------------------------------------------
@@ -513,7 +514,8 @@ def check_audio_path(path: str | os.PathLike) -> None:
 
 
 def line_text(line: Line) -> str | None:
-    """The words of a line (None when only an alignment is given)."""
+    """The words of a line (None when only an alignment is given, or when
+    there is no transcript at all: the words are then recognised)."""
     if line.text is not None:
         return line.text
     from .language.text import read_text_file
@@ -526,8 +528,7 @@ def line_text(line: Line) -> str | None:
         side = Path(line.audio).with_suffix(".txt")
         if side.is_file():
             return read_text_file(side)[0]
-    raise LipSyncError("no transcript: give a 'transcript', 'text' or 'alignment' column "
-                       "(or put a .txt beside the audio)")
+    return None
 
 
 def transcript_file(line: Line) -> str | None:
@@ -580,8 +581,10 @@ def work(line: Line, defaults: Defaults) -> Outcome:
     except Exception as exc:  # one bad line must not stop the others
         return Outcome(line.number, line.label(), "failed", error=one_line_error(exc),
                        seconds=time.perf_counter() - t0)
+    from .output import beyond_script
+
     return Outcome(line.number, line.label(), "ok", seconds=time.perf_counter() - t0, result=result,
-                   record=record)
+                   record=record, beyond=beyond_script(result.alignment))
 
 
 def _replace(path: str, write: Callable[[str], None]) -> None:

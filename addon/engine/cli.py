@@ -135,9 +135,18 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"warning: {w}", file=sys.stderr)
         elif args.text is not None:
             text = args.text
-        if text is None and not args.alignment:
-            raise LipSyncError("give the transcript with --transcript FILE or --text \"...\" "
-                               "(or an alignment with --alignment FILE)")
+        elif not args.alignment:
+            # The transcript beside the audio (line.txt for line.wav), else the words are recognised.
+            side = os.path.splitext(args.audio)[0] + ".txt"
+            if os.path.isfile(side):
+                args.transcript = side
+                text, warnings = read_text_file(side)
+                if not text.strip():
+                    raise LipSyncError(f"the transcript is empty: {side} holds no text")
+                if not args.quiet:
+                    print(f"transcript: {side}")
+                for w in warnings:
+                    print(f"warning: {w}", file=sys.stderr)
         t0 = time.perf_counter()
         result = analyze(args.audio, text, alignment=args.alignment, viseme_set=args.viseme_set,
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
@@ -164,6 +173,11 @@ def main(argv: list[str] | None = None) -> int:
         for note in result.notes:
             if note not in result.warnings:
                 print("note:", note)
+        from .output import beyond_script
+
+        beyond = beyond_script(al)
+        if beyond:
+            print(beyond)
     return 0
 
 
@@ -246,6 +260,10 @@ def _batch(args) -> int:
             return 1
     for msg in report.failure_lines():
         print(f"failed: {msg}", file=sys.stderr)
+    if not args.quiet:
+        for o in report.outcomes:
+            if o.beyond:
+                print(f"line {o.number} ({o.label}): {o.beyond}")
     if not args.quiet:
         print(report.summary())
     return 0 if report.ok else 1

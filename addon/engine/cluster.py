@@ -252,7 +252,7 @@ def worker_line(line: dict, defaults: dict, expected: dict) -> dict:
                 out.result.write_csv(path)
                 rendered["csv"] = Path(path).read_bytes()
     return {"status": out.status, "error": out.error, "seconds": out.seconds, "outputs": rendered,
-            "record": out.record}
+            "record": out.record, "beyond": out.beyond}
 
 
 # ---------------------------------------------------------------------------
@@ -447,7 +447,7 @@ def _run(client, address, lines, defaults, deadline, timeout) -> Iterator:
         else:
             yield Outcome(ln.number, ln.label(), res["status"], error=res["error"], seconds=res["seconds"],
                           result=Rendered(res["outputs"]) if res["status"] == "ok" else None,
-                          record=res.get("record"))
+                          record=res.get("record"), beyond=res.get("beyond", ""))
         del fut, res
 
 

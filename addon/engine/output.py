@@ -23,6 +23,34 @@ from .errors import LipSyncError
 SCHEMA_VERSION = 1
 
 
+def beyond_script(al: Alignment) -> str:
+    """How far a take strayed from its script, in one line ("" when it did
+    not): words recognised with no transcript, transcript words not heard,
+    seconds of unscripted speech."""
+    parts = []
+    if al.words and all(w.recognized for w in al.words):
+        parts.append(f"{len(al.words)} word{'s' if len(al.words) != 1 else ''} recognised (no transcript)")
+    unheard = sum(not w.spoken for w in al.words)
+    if unheard:
+        parts.append(f"{unheard} word{'s' if unheard != 1 else ''} of the transcript not heard")
+    if al.unscripted:
+        parts.append(f"{sum(b - a for a, b, _ in al.unscripted):.1f} s of unscripted speech")
+    return "; ".join(parts)
+
+
+def _word(w) -> dict:
+    """A word of the JSON document.  ``spoken`` (false: a transcript word
+    the audio does not hold) and ``recognized`` (true: heard, not read in a
+    transcript) appear only when they differ from a transcript word's."""
+    out = {"word": w.text, "start": round(w.start, 4), "end": round(w.end, 4),
+           "estimated": bool(w.estimated), "pronunciation": w.source or None}
+    if not w.spoken:
+        out["spoken"] = False
+    if w.recognized:
+        out["recognized"] = True
+    return out
+
+
 @dataclass
 class Result:
     """Everything :func:`.pipeline.analyze` found, and the curves."""
@@ -57,9 +85,7 @@ class Result:
             "emotion": self.emotion,
             "coarticulation": self.model,
             "visemes": list(self.viseme_set.visemes),
-            "words": [{"word": w.text, "start": round(w.start, 4), "end": round(w.end, 4),
-                       "estimated": bool(w.estimated), "pronunciation": w.source or None}
-                      for w in al.words],
+            "words": [_word(w) for w in al.words],
             "phonemes": [{"phone": p.phone, "start": round(p.start, 4), "end": round(p.end, 4),
                           "word_index": p.word_index,
                           "pitch_hz": None if not np.isfinite(f) else round(float(f), 2),
@@ -73,6 +99,7 @@ class Result:
             "arousal": self.arousal.to_dict() if self.arousal is not None else None,
             "emotions": self.emotions or [{"emotion": self.emotion, "time": 0.0, "fade": None}],
             "expression": {unit: np.round(v, 4).tolist() for unit, v in self.expression.items()},
+            "unscripted": [{"start": round(a, 4), "end": round(b, 4), "text": t} for a, b, t in al.unscripted],
         }
 
     def write_json(self, path: str | os.PathLike) -> None:

@@ -26,6 +26,7 @@ from . import audio as audio_mod
 from . import coarticulation, emotion_track, presets, prosody
 from .alignment import AlignSettings, Alignment, align_audio
 from .alignment.parallel import Background
+from .alignment.recognize import recognize
 from .audio import Audio
 from .errors import AudioError, LipSyncError
 from .framerate import parse_fps
@@ -103,6 +104,13 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             transcript_path: str | os.PathLike | None = None) -> Result:
     """Audio + transcript (or an imported alignment) -> viseme curves.
 
+    With no transcript (``text`` None) and no alignment, the words are
+    recognised from the audio (:mod:`.alignment.recognize`, marked
+    ``recognized``).  A transcript is checked against the take
+    (:mod:`.alignment.verify`): its words the audio does not hold are kept
+    unspoken (no phones, the mouth at rest), and speech it leaves out is
+    recognised and animated (``Alignment.unscripted``).
+
     ``emotion`` is a built-in preset name, a preset file path, a
     :class:`.presets.Preset` or a preset document (a dict, which may name a
     ``base``); ``viseme_set`` a built-in set name or a file path (default:
@@ -138,8 +146,6 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     snd = audio if isinstance(audio, Audio) else audio_mod.load(audio)
     voice_model = arousal_mod.load_model()
     if alignment is None:
-        if text is None:
-            raise LipSyncError("give a transcript, or an alignment file to import")
         if snd.duration < MIN_SPEECH:
             name = "the audio" if isinstance(audio, Audio) else f"audio file {os.fspath(audio)}"
             raise AudioError(f"{name} is too short to hold speech ({snd.duration:.3f} s; "
@@ -148,7 +154,10 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         lexicon = Lexicon.with_user_file(dictionary)
         background = _voice_beside_alignment(snd, settings, voice_model)
         try:
-            al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
+            if text is None:
+                al = recognize(snd, settings, lambda f: report("align", 0.1 + 0.7 * f))
+            else:
+                al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
         except BaseException:
             if background is not None:
                 background.close()
@@ -162,8 +171,9 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     report("prosody", 0.8)
     tracks, measured = background.result() if background is not None else measure_voice(snd, voice_model)
     voice = arousal_mod.estimate(snd, tracks, al, voice_model, measured=measured) if measured is not None else None
+    script_starts = [w.start for w in al.words if not w.recognized]  # tags count the transcript's words
     changes = [emotion_track.Change(t, lookup(name), name)
-               for t, name in emotion_track.tag_times(tags, [w.start for w in al.words], al.duration)]
+               for t, name in emotion_track.tag_times(tags, script_starts, al.duration)]
     for t, p in emotion_changes or []:
         p = lookup(p) if isinstance(p, str) else presets.as_preset(p)
         changes.append(emotion_track.Change(float(t), p, p.name))

@@ -39,7 +39,10 @@ the speech and pauses are), :mod:`.decoding` (pocketsphinx passes),
 :mod:`.estimate` (placing by estimate), :mod:`.fillers` (a hesitation
 may be a filler sound), :mod:`.bursts` (a stop after silence starts at its
 release burst), :mod:`.core` (:func:`align`), :mod:`.transcript`
-(:func:`align_audio`: a written transcript rather than phones).
+(:func:`align_audio`: a written transcript rather than phones),
+:mod:`.verify` (the transcript checked against the take: words not said,
+speech not scripted) and :mod:`.recognize` (speech with no transcript,
+:func:`.recognize.recognize`).
 """
 
 from .core import align, check_transcript_matches

@@ -113,3 +113,9 @@ def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 
         raise AlignmentError(
             f"{share:.0%} of the phonemes could not be aligned to the audio: "
             "does the transcript belong to this recording?")
+    script = [w for w in alignment.words if not w.recognized]
+    unheard = sum(not w.spoken for w in script) / max(1, len(script))
+    if unheard > max_estimated_share and len(script) > 3:
+        raise AlignmentError(
+            f"{unheard:.0%} of the transcript's words could not be aligned to the audio nor heard in it: "
+            "does the transcript belong to this recording?")

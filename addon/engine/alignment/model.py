@@ -59,6 +59,10 @@ class AlignedWord:
     phones: list[str]
     source: str = ""             # where the pronunciation came from
     estimated: bool = False
+    #: False for a transcript word the audio does not hold (it has no phones; see :mod:`.verify`).
+    spoken: bool = True
+    #: True for a word recognised from the audio rather than read in a transcript (:mod:`.recognize`).
+    recognized: bool = False
 
 
 @dataclass
@@ -78,6 +82,8 @@ class Alignment:
     notes: list[str] = field(default_factory=list)
     #: Notes the user must see (words of the transcript left out, ...): also in ``notes``.
     warnings: list[str] = field(default_factory=list)
+    #: Speech no transcript word lies on: (start, end, recognised text) (see :mod:`.verify`).
+    unscripted: list[tuple[float, float, str]] = field(default_factory=list)
 
     @property
     def n_estimated(self) -> int:

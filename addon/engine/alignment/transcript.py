@@ -18,12 +18,15 @@ from ..errors import AlignmentError
 from ..language import Lexicon, describe_skipped, normalize, skipped_words
 from .core import align, check_transcript_matches
 from .model import AlignSettings, Alignment
+from .verify import verify
 
 
 def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                 settings: AlignSettings | None = None,
-                progress: Callable[[float], None] | None = None) -> Alignment:
-    """Normalise ``text``, pronounce every word and align it to ``snd``."""
+                progress: Callable[[float], None] | None = None, check_take: bool = True) -> Alignment:
+    """Normalise ``text``, pronounce every word and align it to ``snd``;
+    with ``check_take``, then check the transcript against the take
+    (:func:`.verify.verify`: words not said, speech not scripted)."""
     lexicon = lexicon or Lexicon()
     words = normalize(text)
     prons = [lexicon.pronounce(w) for w in words]
@@ -34,6 +37,8 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
                              f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
                              "lines") from None
+    if check_take:
+        verify(snd, al, settings)
     check_transcript_matches(al)
     skipped = skipped_words(text)
     if skipped:

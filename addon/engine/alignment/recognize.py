@@ -1,0 +1,170 @@
+"""Speech without a script: the words recognised, then their phones aligned.
+
+With no transcript, what was said is recognised with pocketsphinx's bundled
+US English acoustic model, language model and dictionary.  The audio is cut
+at its pauses into chunks of at most :attr:`AlignSettings.max_chunk` seconds
+(:func:`.chunks.plan_chunks`), so memory stays bounded whatever the length;
+each chunk is decoded with the language model (a fast search: every second
+frame scored), then its phones are aligned to the words found, frame by
+frame, in a second pass.  The chunks are shared between two processes when
+there are several.
+
+Recognition makes mistakes a transcript would not (a similar-sounding word,
+a short word dropped), but the mouth shapes follow the sounds, which the
+recogniser gets mostly right.  Recognised words carry ``recognized = True``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from typing import Callable
+
+import numpy as np
+
+from ..audio import Audio
+from ..errors import AudioError
+from .chunks import plan_chunks
+from .estimate import _clean, _estimate
+from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
+from .parallel import _pool
+from .speech import frame_levels, speech_mask
+
+#: The recogniser's search.  Scoring every second frame (``ds``) and pruning
+#: harder than pocketsphinx's defaults makes it about four times faster; the
+#: second (alignment) pass places the phones on every frame again.  Without
+#: the phone lookahead (``pl_window``), which with ``ds`` carries state from
+#: one utterance to the next, a chunk is recognised alike whatever came before.
+DECODER_OPTIONS = dict(ds=2, fwdflat=False, bestpath=False, maxhmmpf=1000, maxwpf=5,
+                       beam=1e-40, wbeam=1e-30, pbeam=1e-40, cmn="batch", pl_window=0)
+
+_VARIANT = re.compile(r"\(\d+\)$")
+_loaded: list = []   # [decoder, its language-model search], once loaded
+
+
+def _decoder():
+    """The recogniser, loaded once (the language model takes a while); the
+    worker processes are forked with it loaded and use their own copy."""
+    import pocketsphinx
+
+    if not _loaded:
+        decoder = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **DECODER_OPTIONS)
+        _loaded[:] = [decoder, decoder.current_search()]
+    return _loaded
+
+
+def _is_word(name: str) -> bool:
+    return not (name.startswith("<") or name.startswith("[") or name.startswith("+"))
+
+
+def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
+    """The words of one chunk: (text, [(phone, first frame, end frame)],
+    phones estimated).  Frames count from the chunk's start."""
+    decoder, search = _decoder()
+    try:
+        decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
+        decoder.start_utt()
+        decoder.process_raw(pcm, full_utt=True)
+        decoder.end_utt()
+    except RuntimeError:
+        return []
+    segs = [(sg.word, sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if _is_word(sg.word)]
+    if not segs:
+        return []
+    try:
+        decoder.set_alignment()
+        decoder.start_utt()
+        decoder.process_raw(pcm, full_utt=True)
+        decoder.end_utt()
+        aligned = decoder.get_alignment()
+        words = [(w.name, [(p.name, p.start, p.start + p.duration) for p in w])
+                 for w in (aligned or []) if _is_word(w.name)]
+    except RuntimeError:
+        words = []
+    if [w[0] for w in words] == [s[0] for s in segs]:
+        return [(_VARIANT.sub("", name), phones, False) for name, phones in words]
+    # The phone pass failed: the word times stay, phones by estimate.
+    out = []
+    for name, a, b in segs:
+        pron = (decoder.lookup_word(name) or "").split()
+        if not pron:
+            continue
+        ph = _estimate([pron], [(a * FRAME, b * FRAME)])[0]
+        out.append((_VARIANT.sub("", name), [(p, int(round(s / FRAME)), int(round(e / FRAME))) for p, s, e in ph],
+                    True))
+    return out
+
+
+_SHARED: dict = {}
+
+
+def _chunk_shared(key: int, t0: float, t1: float):
+    return _recognize_chunk(_SHARED[key].pcm16(t0, t1))
+
+
+def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: AlignSettings | None = None,
+                    progress: Callable[[float], None] | None = None) -> tuple[list[AlignedWord], list[AlignedPhone]]:
+    """Recognise the speech of each (start, end) span of ``audio`` (s).
+    Returns the words (``recognized``) and their phones, in time order; a
+    phone's ``word_index`` counts in the returned words."""
+    settings = settings or AlignSettings()
+    spans = [(a, b) for a, b in spans if b - a >= 0.05]
+    if not spans:
+        return [], []
+    _decoder()  # loaded before the workers are forked, which share it
+    pool = _pool(settings) if len(spans) > 1 else None
+    key = id(audio)
+    _SHARED[key] = audio
+    try:
+        if pool is not None:
+            futures = [pool.submit(_chunk_shared, key, a, b) for a, b in spans]
+            results = []
+            for k, f in enumerate(futures):
+                results.append(f.result())
+                if progress:
+                    progress((k + 1) / len(spans))
+        else:
+            results = []
+            for k, (a, b) in enumerate(spans):
+                results.append(_chunk_shared(key, a, b))
+                if progress:
+                    progress((k + 1) / len(spans))
+    finally:
+        if pool is not None:
+            pool.shutdown()
+        del _SHARED[key]
+    words: list[AlignedWord] = []
+    phones: list[AlignedPhone] = []
+    for (t0, t1), found in zip(spans, results):
+        for text, ph, est in found:
+            ph = _clean([(p, min(t1, t0 + a * FRAME), min(t1, t0 + b * FRAME)) for p, a, b in ph])
+            wi = len(words)
+            words.append(AlignedWord(text, ph[0][1], ph[-1][2], [p for p, _, _ in ph], "recognized", est,
+                                     recognized=True))
+            phones.extend(AlignedPhone(p, a, b, wi, est) for p, a, b in ph)
+    return words, phones
+
+
+def speech_chunks(mask: np.ndarray, settings: AlignSettings, duration: float) -> list[tuple[float, float]]:
+    """The clip's speech cut at its pauses, as (start, end) s."""
+    return [(c.start, c.end) for c in plan_chunks(mask, settings, duration)]
+
+
+def recognize(audio: Audio, settings: AlignSettings | None = None,
+              progress: Callable[[float], None] | None = None) -> Alignment:
+    """What ``audio`` says, recognised and aligned: an :class:`Alignment`
+    whose words all carry ``recognized = True``."""
+    settings = settings or AlignSettings()
+    levels = frame_levels(audio)
+    mask, _ = speech_mask(levels, audio)
+    if not mask.any():
+        raise AudioError(
+            f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
+            "check that the right sound is selected and that it is not muted")
+    words, phones = recognize_spans(audio, speech_chunks(mask, settings, audio.duration), settings, progress)
+    if not words:
+        note = "no transcript, and no words were recognised in the audio: the mouth stays at rest"
+        return Alignment(words, phones, audio.duration, [note], [note])
+    note = (f"no transcript: the words were recognised from the audio ({len(words)} word"
+            f"{'s' if len(words) != 1 else ''}); give a transcript for exact words and timing")
+    return Alignment(words, phones, audio.duration, [note], [])

@@ -1,0 +1,182 @@
+"""Speech beyond the script, on the recordings in ../shared/data (skips when absent).
+
+For every clip with reference phones (bench/common.py ``reference_phones``):
+
+* **No transcript** beside **with it**: the event score, phone starts within
+  40 ms of the reference, and wall time as a share of the audio's length.
+  The event score is the share of the reference's speech events the mouth
+  shows: every vowel (a hit when the mouth is open, some viseme at 0.2 or
+  more, on at least half of its 10 ms frames), every /p b m/ (a hit when the
+  lips close, closure 0.5 or more, on a frame within 30 ms of it), and every
+  pause of 0.3 s or more between the reference's phones (a hit when the
+  mouth is at rest, every viseme under 0.2, on at least half of it).  Phone
+  starts are matched in order on a minimum edit path (bench/alignment_accuracy.py);
+  the figure is the share of reference phones matched and within 40 ms.
+
+On the two long MFA clips (26 s each, reference words):
+
+* **Appended words**: seven words nobody says added to the transcript:
+  how many come back ``spoken: false``, and the share of frames after the
+  last spoken word (+0.2 s) where the mouth is at rest;
+* **Cut words**: ten spoken words (the 10 after the first third) removed:
+  the share of their reference speech inside ``unscripted`` spans, and of
+  their reference vowel frames where the mouth is open;
+* **Swapped word**: one word replaced by another: how far (ms) the start of
+  the word before and after it moved against the matching transcript.
+
+    LIPSYNC_DATA=/work/shared/data .venv/bin/python bench/offscript.py
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import time
+
+import numpy as np
+
+from common import reference_phones
+from alignment_accuracy import match
+from addon.engine import audio as audio_mod
+from addon.engine.importers import read_textgrid
+from addon.engine.language.phonemes import VOWELS
+from addon.engine.pipeline import analyze
+
+APPENDED = "and then the purple elephant quietly danced"
+OPEN = 0.2
+
+
+def _frames(r, a: float, b: float) -> np.ndarray:
+    return np.flatnonzero((r.times >= a) & (r.times < b))
+
+
+def event_score(r, ref) -> tuple[float, int]:
+    """(share of events hit, events); see the module's docstring."""
+    active = r.curves.max(axis=1) >= OPEN
+    hits = []
+    for p in ref.phones:
+        if p.phone in VOWELS:
+            f = _frames(r, p.start, p.end)
+            if len(f):
+                hits.append(active[f].mean() >= 0.5)
+        elif p.phone in {"P", "B", "M"}:
+            f = _frames(r, p.start - 0.03, p.end + 0.03)
+            hits.append(bool(len(f)) and r.closure[f].max() >= 0.5)
+    phones = sorted(ref.phones, key=lambda p: p.start)
+    for p, q in zip(phones[:-1], phones[1:]):
+        if q.start - p.end >= 0.3:
+            f = _frames(r, p.end, q.start)
+            hits.append((~active[f]).mean() >= 0.5)
+    return float(np.mean(hits)), len(hits)
+
+
+def phone_starts(r, ref) -> float:
+    al = r.alignment
+    pairs = match([p.phone for p in al.phones], [p.phone for p in ref.phones])
+    err = np.round(np.array([abs(al.phones[i].start - ref.phones[j].start) for i, j in pairs]), 4)
+    return float(np.mean(err <= 0.04)) * len(pairs) / max(1, len(ref.phones))
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and its finished workers."""
+    return sum(resource.getrusage(who).ru_utime + resource.getrusage(who).ru_stime
+               for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+
+
+def no_transcript() -> None:
+    print("No transcript (recognised) beside the transcript (aligned); x rt: wall time per second of audio, "
+          f"cpu: CPU seconds (all processes) per second of audio; load average {os.getloadavg()[0]:.1f} "
+          f"on {os.cpu_count()} cores")
+    print(f"{'clip':16s} {'events':>6s} {'score':>6s} {'scr+txt':>7s} {'<=40ms':>7s} {'+txt':>6s} "
+          f"{'x rt':>6s} {'+txt':>6s} {'cpu':>6s} {'+txt':>6s}  recognised")
+    rows = []
+    for name, audio, text, grid, phoneset in reference_phones():
+        ref = read_textgrid(grid, phoneset)
+        snd = audio_mod.load(audio)
+        t0, c0 = time.perf_counter(), _cpu()
+        bare = analyze(snd, None)
+        t1, c1 = time.perf_counter(), _cpu()
+        given = analyze(snd, text)
+        t2, c2 = time.perf_counter(), _cpu()
+        (s0, n), (s1, _) = event_score(bare, ref), event_score(given, ref)
+        p0, p1 = phone_starts(bare, ref), phone_starts(given, ref)
+        d = snd.duration
+        rows.append((s0, s1, p0, p1, t1 - t0, t2 - t1, d, n, c1 - c0, c2 - c1))
+        words = " ".join(w.text for w in bare.alignment.words)
+        print(f"{name:16s} {n:6d} {s0:6.3f} {s1:7.3f} {p0:7.3f} {p1:6.3f} {(t1 - t0) / d:6.3f} {(t2 - t1) / d:6.3f} "
+              f"{(c1 - c0) / d:6.3f} {(c2 - c1) / d:6.3f}  {words[:50]}")
+    a = np.array(rows)
+    w = a[:, 7] / a[:, 7].sum()
+    total = a[:, 6].sum()
+    print(f"{'mean (by clip)':16s} {'':6s} {a[:, 0].mean():6.3f} {a[:, 1].mean():7.3f} {a[:, 2].mean():7.3f} "
+          f"{a[:, 3].mean():6.3f} {a[:, 4].sum() / total:6.3f} {a[:, 5].sum() / total:6.3f} "
+          f"{a[:, 8].sum() / total:6.3f} {a[:, 9].sum() / total:6.3f}")
+    print(f"{'mean (by event)':16s} {'':6s} {(a[:, 0] * w).sum():6.3f} {(a[:, 1] * w).sum():7.3f}")
+
+
+def _word_spans(ref):
+    return [(w.text, w.start, w.end) for w in ref.words if w.text]
+
+
+def scripts() -> None:
+    clips = [c for c in reference_phones() if c[0].endswith("corpus")]
+    print("\nTakes that differ from their script")
+    for name, audio, text, grid, phoneset in clips:
+        ref = read_textgrid(grid, phoneset)
+        snd = audio_mod.load(audio)
+        base = analyze(snd, text)
+        # Appended words.
+        r = analyze(snd, text.strip() + " " + APPENDED)
+        words = r.alignment.words
+        unheard = sum(not w.spoken for w in words[-len(APPENDED.split()):])
+        last = max(w.end for w in words if w.spoken and not w.recognized)
+        f = _frames(r, last + 0.2, r.duration)
+        rest = float((r.curves[f].max(axis=1) < OPEN).mean()) if len(f) else 1.0
+        f0 = _frames(base, last + 0.2, base.duration)
+        rest0 = float((base.curves[f0].max(axis=1) < OPEN).mean()) if len(f0) else 1.0
+        print(f"{name:16s} appended: {unheard}/7 spoken false; at rest after the last spoken word "
+              f"{rest:.1%} (matching transcript {rest0:.1%}); other words unspoken: "
+              f"{sum(not w.spoken for w in words[:-7])}")
+        # Cut words.
+        spoken = _word_spans(ref)
+        k0 = len(spoken) // 3
+        cut = spoken[k0:k0 + 10]
+        tokens = text.split()
+        # Remove the same ten words from the transcript: find them in order from the same position.
+        lower = [t.lower().strip(".,!?") for t in tokens]
+        at = next(i for i in range(len(lower) - 9) if lower[i:i + 10] == [c[0].lower() for c in cut])
+        r = analyze(snd, " ".join(tokens[:at] + tokens[at + 10:]))
+        spans = r.alignment.unscripted
+        a, b = cut[0][1], cut[-1][2]
+        grid_t = np.arange(a, b, 0.01)
+        inside = np.zeros(len(grid_t), bool)
+        for s, e, _ in spans:
+            inside |= (grid_t >= s) & (grid_t < e)
+        speech = np.zeros(len(grid_t), bool)
+        for _, s, e in cut:
+            speech |= (grid_t >= s) & (grid_t < e)
+        active = r.curves.max(axis=1) >= OPEN
+        vf = np.concatenate([_frames(r, p.start, p.end) for p in ref.phones
+                             if p.phone in VOWELS and a <= p.start < b] or [np.zeros(0, int)])
+        base_active = base.curves.max(axis=1) >= OPEN
+        print(f"{name:16s} cut {' '.join(c[0] for c in cut)!r}: {inside[speech].mean():.1%} of their speech "
+              f"unscripted; mouth open on {active[vf].mean():.1%} of their vowel frames "
+              f"(matching transcript {base_active[vf].mean():.1%})")
+        # Swapped word: the middle word of the transcript replaced.
+        mid = len(tokens) // 2
+        swapped = tokens[:mid] + ["elephant"] + tokens[mid + 1:]
+        r = analyze(snd, " ".join(swapped))
+        bw = [w for w in base.alignment.words if not w.recognized]
+        sw = [w for w in r.alignment.words if not w.recognized]
+        if len(bw) == len(sw):
+            k = next(i for i, w in enumerate(sw) if w.text == "elephant")
+            moved = [abs(sw[j].start - bw[j].start) * 1000 for j in (k - 1, k + 1)]
+            print(f"{name:16s} swapped {tokens[mid]!r} -> 'elephant': neighbours moved {moved[0]:.0f} and "
+                  f"{moved[1]:.0f} ms")
+        else:
+            print(f"{name:16s} swapped: word counts differ ({len(bw)} vs {len(sw)})")
+
+
+if __name__ == "__main__":
+    no_transcript()
+    scripts()

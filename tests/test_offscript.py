@@ -1,0 +1,166 @@
+"""Speech beyond the script: a line with no transcript is recognised, words
+the take does not hold are left unspoken, and speech the script leaves out
+is recognised and animated."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from addon.engine import audio as audio_mod
+from addon.engine.language.phonemes import VOWELS
+from addon.engine.pipeline import analyze
+from conftest import FIXTURES, ROOT, SAMPLE
+
+HELLO = SAMPLE / "hello.wav"
+HELLO_TEXT = (SAMPLE / "hello.txt").read_text(encoding="utf-8")
+OPEN = 0.2  # some viseme at least this strong: the mouth is not at rest
+
+
+def _active(r, a: float, b: float) -> np.ndarray:
+    f = (r.times >= a) & (r.times < b)
+    return r.curves[f].max(axis=1) >= OPEN
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "addon", *map(str, args)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_audio_alone_is_recognised_and_animated():
+    r = analyze(HELLO, None)
+    doc = r.to_dict()
+    assert len(doc["words"]) >= 5
+    assert all(w["recognized"] is True for w in doc["words"])
+    assert any("recognised" in n for n in doc["notes"])
+    # Every recognised word has its phones, and the mouth moves over the speech.
+    al = r.alignment
+    assert {p.word_index for p in al.phones} == set(range(len(al.words)))
+    first, last = al.words[0].start, al.words[-1].end
+    assert _active(r, first, last).mean() > 0.5
+    assert not _active(r, 0.0, max(0.0, first - 0.15)).any()
+
+
+def test_audio_with_no_words_heard_stays_at_rest():
+    t = np.arange(32000) / 16000
+    tone = (0.3 * np.sin(2 * np.pi * 440 * t) * ((t > 0.5) & (t < 1.5))).astype(np.float32)
+    r = analyze(audio_mod.Audio(tone, 16000), None)
+    assert r.alignment.words == [] and float(r.curves.max()) == 0.0
+    assert any("no words were recognised" in w for w in r.warnings)
+
+
+def test_recognised_speech_opens_the_mouth_on_vowels_and_rests_in_silence():
+    snd = audio_mod.load(HELLO)
+    heard, read = analyze(snd, None), analyze(snd, HELLO_TEXT)
+    vowels = [p for p in read.alignment.phones if p.phone in VOWELS]
+    shown = [_active(heard, p.start, p.end).mean() >= 0.5 for p in vowels]
+    assert np.mean(shown) >= 0.5   # 0.62 on this synthetic voice; 0.89-0.96 on recorded speech (bench/offscript.py)
+    near = np.zeros(len(heard.times), bool)
+    for w in read.alignment.words:
+        near |= (heard.times >= w.start - 0.2) & (heard.times < w.end + 0.2)
+    assert (heard.curves[~near].max(axis=1) < OPEN).mean() >= 0.9
+
+
+def test_matching_transcript_output_has_no_new_marks():
+    doc = analyze(FIXTURES / "bob_map.wav", (FIXTURES / "bob_map.txt").read_text()).to_dict()
+    assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
+    assert all("spoken" not in w and "recognized" not in w for w in doc["words"])
+    assert doc["unscripted"] == []
+
+
+def test_appended_words_are_left_unspoken_with_the_mouth_at_rest():
+    extra = "purple elephants dance quietly tonight"
+    r = analyze(HELLO, "Hello! My name is Bob, and I'm very happy to meet you. " + extra)
+    al = r.alignment
+    doc = r.to_dict()
+    appended = [w for w in doc["words"] if not w.get("recognized")][-5:]
+    assert [w["word"] for w in appended] == extra.split()
+    assert all(w["spoken"] is False for w in appended)
+    gone = {k for k, w in enumerate(al.words) if not w.spoken}
+    assert not any(p.word_index in gone for p in al.phones)
+    assert any("not heard" in n and "'elephants'" in n for n in r.warnings)
+    # Nothing of the transcript is placed after the last word heard.
+    last = max(w.end for w in al.words if w.spoken and not w.recognized)
+    assert all(w.start <= last for w in al.words if not w.spoken)
+
+
+def test_cut_words_come_back_as_unscripted_speech():
+    full = analyze(HELLO, HELLO_TEXT).alignment.words
+    cut_start, cut_end = full[5].start, full[11].end      # "and I'm very happy to meet you"
+    r = analyze(HELLO, "Hello! My name is Bob. Please remember my voice.")
+    spans = r.to_dict()["unscripted"]
+    assert spans and all(s["text"] for s in spans)
+    t = np.arange(cut_start, cut_end, 0.01)
+    inside = np.zeros(len(t), bool)
+    for s in spans:
+        inside |= (t >= s["start"]) & (t < s["end"])
+    assert inside.mean() >= 0.5
+    vowels = [p for p in analyze(HELLO, HELLO_TEXT).alignment.phones
+              if cut_start <= p.start < cut_end and p.phone in {"AE", "AY", "EH", "IY", "UW", "AH", "IH"}]
+    shown = np.concatenate([_active(r, p.start, p.end) for p in vowels])
+    assert shown.mean() >= 0.7
+    assert any("not in the transcript" in w for w in r.warnings)
+
+
+@pytest.mark.xfail(strict=True, reason="the word after a swapped word moves 50 ms on this clip (target 40 ms)")
+def test_a_swapped_word_keeps_its_neighbours_in_place():
+    snd = audio_mod.load(HELLO)
+    base = analyze(snd, HELLO_TEXT).alignment.words
+    swapped = analyze(snd, HELLO_TEXT.replace("happy", "sorry")).alignment.words
+    assert [w.text for w in swapped][8] == "sorry"
+    for k in (7, 9):
+        assert abs(swapped[k].start - base[k].start) <= 0.04
+
+
+def test_cli_reads_the_transcript_beside_the_audio_else_recognises(tmp_path):
+    shutil.copy(FIXTURES / "bob_map.wav", tmp_path / "line.wav")
+    out = tmp_path / "line.json"
+    p = _cli("analyze", tmp_path / "line.wav", "--json", out)
+    assert p.returncode == 0, p.stderr
+    words = json.loads(out.read_text())["words"]
+    assert words and all(w["recognized"] for w in words)
+    assert "recognised (no transcript)" in p.stdout
+    (tmp_path / "line.txt").write_text("Bob bought a map.", encoding="utf-8")
+    p = _cli("analyze", tmp_path / "line.wav", "--json", out)
+    assert p.returncode == 0, p.stderr
+    words = json.loads(out.read_text())["words"]
+    assert [w["word"] for w in words] == ["bob", "bought", "a", "map"]
+    assert not any("recognized" in w for w in words)
+    assert "transcript: " in p.stdout
+
+
+def test_cli_counts_words_not_heard(tmp_path):
+    out = tmp_path / "line.json"
+    p = _cli("analyze", HELLO, "--text", "Hello! My name is Bob, and I'm very happy to meet you. "
+             "purple elephants dance quietly tonight", "--json", out)
+    assert p.returncode == 0, p.stderr
+    assert "5 words of the transcript not heard" in p.stdout
+
+
+def test_batch_line_without_transcript_is_recognised(tmp_path):
+    shutil.copy(FIXTURES / "bob_map.wav", tmp_path / "line.wav")
+    (tmp_path / "m.csv").write_text("audio\nline.wav\n", encoding="utf-8")
+    p = _cli("batch", tmp_path / "m.csv")   # line 2 of the manifest: its first line is the header
+    assert p.returncode == 0, p.stderr
+    words = json.loads((tmp_path / "line.json").read_text())["words"]
+    assert words and all(w["recognized"] for w in words)
+    assert re.search(rf"line 2 \(.*line\.wav\): {len(words)} words? recognised \(no transcript\)", p.stdout), p.stdout
+
+
+def test_batch_counts_words_not_heard_per_line(tmp_path):
+    shutil.copy(HELLO, tmp_path / "a.wav")
+    shutil.copy(FIXTURES / "bob_map.wav", tmp_path / "b.wav")
+    (tmp_path / "m.csv").write_text(
+        "audio,text\n"
+        "a.wav,Hello! My name is Bob and I'm very happy to meet you. purple elephants dance quietly tonight\n"
+        "b.wav,Bob bought a map.\n", encoding="utf-8")
+    p = _cli("batch", tmp_path / "m.csv", "--workers", "1")
+    assert p.returncode == 0, p.stderr
+    assert re.search(r"line 2 \(.*a\.wav\): 5 words of the transcript not heard", p.stdout), p.stdout
+    assert "line 3" not in p.stdout
