@@ -44,6 +44,7 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     arousal: arousal_mod.Estimate | None = None   # how excited the voice sounds, -1 to 1
     emotions: list[dict] = field(default_factory=list)  # the emotion over time (inline tags, markers)
+    language: str = "en"       # the transcript's language (its code in data/languages.json)
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -54,6 +55,7 @@ class Result:
             "viseme_set": self.viseme_set.name,
             "emotion": self.emotion,
             "coarticulation": self.model,
+            "language": self.language,
             "visemes": list(self.viseme_set.visemes),
             "words": [{"word": w.text, "start": round(w.start, 4), "end": round(w.end, 4),
                        "estimated": bool(w.estimated), "pronunciation": w.source or None}

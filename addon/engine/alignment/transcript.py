@@ -1,7 +1,9 @@
 """The aligner's front end: a written transcript, not phones.
 
 :func:`align_audio` normalises the transcript (:mod:`..language`),
-pronounces every word and aligns the phones to the audio with :func:`.align`;
+pronounces every word in the lexicon's language and aligns the phones to
+the audio with :func:`.align` (the English acoustic model, each phone of
+another language mapped to the English phone of the nearest mouth);
 the words the aligner cannot use (another script, symbols) are left out and
 said so in the alignment's notes and warnings.
 """
@@ -25,7 +27,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                 progress: Callable[[float], None] | None = None) -> Alignment:
     """Normalise ``text``, pronounce every word and align it to ``snd``."""
     lexicon = lexicon or Lexicon()
-    words = normalize(text)
+    words = normalize(text, lexicon.language)
     prons = [lexicon.pronounce(w) for w in words]
     try:
         al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
@@ -35,7 +37,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                              f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
                              "lines") from None
     check_transcript_matches(al)
-    skipped = skipped_words(text)
+    skipped = skipped_words(text, lexicon.language)
     if skipped:
         n = len(skipped)
         warning = (f"{n} word{'s' if n > 1 else ''} of the transcript left out, the aligner cannot use "
