@@ -149,9 +149,13 @@ def unit_phones(unit: str, fixes: dict | None = None) -> list[str]:
     try:
         return ipa.to_arpabet(unit)
     except ipa.UnknownSymbol:
-        # A symbol eSpeak writes that ipa.json has no features for: keep the rest.
+        # A symbol eSpeak writes that ipa.json has no features for: keep the rest
+        # (nothing when only marks are left, such as a lone palatalisation ʲ).
         kept = "".join(ch for ch in unit if _reads(ch))
-        return ipa.to_arpabet(kept) if kept else []
+        try:
+            return ipa.to_arpabet(kept) if kept else []
+        except ipa.UnknownSymbol:
+            return []
 
 
 def _reads(ch: str) -> bool:

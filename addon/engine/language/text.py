@@ -101,7 +101,8 @@ class Word:
 def ipa_word(tok: str) -> Word:
     """A word written in IPA between slashes; a symbol that is not IPA is a
     :class:`TranscriptError` naming it."""
-    body = tok[1:-1]
+    # Typed on a plain keyboard: ' for the ejective mark ʼ, : for the length mark ː.
+    body = tok[1:-1].replace("'", "ʼ").replace(":", "ː")
     try:
         phones = ipa.to_arpabet(body)
     except ipa.UnknownSymbol as exc:
