@@ -16,7 +16,7 @@ Prints:
 * the same phone-start figures for the raw Montreal Forced Aligner alignments of the set (``mfa/``),
   measured the same way, so that the two can be compared.
 
-    .venv/bin/python bench/languages.py [--limit N] [--lang ISO ...] [--per-language]
+    .venv/bin/python bench/languages.py [--limit N] [--lang ISO ...] [--per-language] [--no-stand-ins]
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ from addon.engine import analyze
 from addon.engine import audio as audio_mod
 from addon.engine.errors import LipSyncError
 from addon.engine.language import ipa
+from addon.engine.language.text import plain_ipa
 
 _INTERVAL = re.compile(r'xmin = ([\d.eE+-]+)\s*\n\s*xmax = ([\d.eE+-]+)\s*\n\s*text = "((?:[^"]|"")*)"')
 
@@ -53,7 +54,7 @@ def read_tiers(path: Path) -> dict[str, list[tuple[float, float, str]]]:
 def base_phone(label: str) -> str | None:
     """The first engine phone of a reference label (None: not IPA, or silence)."""
     try:
-        ph = ipa.to_arpabet(label)
+        ph = ipa.to_arpabet(plain_ipa(label))
     except ipa.UnknownSymbol:
         return None
     return ph[0] if ph else None
@@ -93,9 +94,10 @@ def match_starts(ref: list[tuple[str, float]], hyp: list[tuple[str, float]]) -> 
 def reference(tiers) -> tuple[str, list[tuple[str, float, float, str]]] | None:
     words = [t for a, b, t in tiers.get("words", []) if t]
     phones = [(base_phone(t), a, b, t) for a, b, t in tiers.get("phones", []) if t]
-    if len(words) != 1 or not phones or any(p is None for p, *_ in phones):
+    if len(words) > 1 or not phones or any(p is None for p, *_ in phones):
         return None
-    return words[0], phones
+    # A word tier left empty: the word is its phones.
+    return (words[0] if words else "".join(t for *_, t in phones)), phones
 
 
 def main() -> None:
@@ -103,7 +105,13 @@ def main() -> None:
     ap.add_argument("--limit", type=int, default=0, help="at most N words per language")
     ap.add_argument("--lang", nargs="*", help="only these languages (ISO 639-3 folder names)")
     ap.add_argument("--per-language", action="store_true", help="print the figures of each language")
+    ap.add_argument("--no-stand-ins", action="store_true",
+                    help="align every phone as the phone it shows (no acoustic stand-ins), to measure them")
     args = ap.parse_args()
+    if args.no_stand_ins:
+        from addon.engine.language import pronounce
+
+        pronounce.stand_ins = dict
     root = need_data() / "voxangeles"
     if not root.is_dir():
         print(f"skipped: {root} is not here")
@@ -175,7 +183,7 @@ def main() -> None:
         for lang in sorted(stats):
             print(f"{lang:4s} {figures([stats[lang]])}")
     print(f"all  {figures(list(stats.values()))}")
-    print(f"({unusable} words left out: no single IPA word, or phones that are not IPA)")
+    print(f"({unusable} words left out: several words, no phones, or phones that are not IPA)")
 
 
 if __name__ == "__main__":

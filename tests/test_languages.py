@@ -190,6 +190,13 @@ def test_a_spoken_line_is_aligned_and_the_lips_close(code, voice, text):
     words = normalize(text, code)
     assert [w["word"] for w in doc["words"]] == [w.text for w in words]
     assert not any(w["estimated"] for w in doc["words"])
+    # Each word shows the phones of its mouth, whatever stand-in the English acoustic model looked for
+    # ([e] is aligned as EY, [a] as AE, and shown as EH, AA).
+    lex = Lexicon.with_user_file(None, code)
+    for k, w in enumerate(words):
+        assert [p.phone for p in result.alignment.phones if p.word_index == k] == lex.pronounce(w).phones
+    assert {"EH", "AA"} & {p.phone for p in result.alignment.phones} and not \
+        {"EY", "AE"} & {p.phone for p in result.alignment.phones}
     # The words follow each other inside the speech.
     starts = [w["start"] for w in doc["words"]]
     assert starts == sorted(starts) and starts[0] >= 0.2 and doc["words"][-1]["end"] <= snd.duration - 0.2

@@ -36,9 +36,20 @@ class Language:
 
 
 @lru_cache(maxsize=1)
-def table() -> dict[str, Language]:
+def _doc() -> dict:
     with open(DATA, encoding="utf-8") as fh:
-        doc = json.load(fh)
+        return json.load(fh)
+
+
+def stand_ins() -> dict[str, str]:
+    """Phone -> the English phone the aligner looks for in its place, for
+    words read from IPA (see ``stand_ins_description`` in the table)."""
+    return dict(_doc().get("stand_ins", {}))
+
+
+@lru_cache(maxsize=1)
+def table() -> dict[str, Language]:
+    doc = _doc()
     return {code: Language(code, e["name"], e.get("espeak"), tuple(e.get("codes", ())), e.get("phone_fixes", {}))
             for code, e in doc["languages"].items()}
 

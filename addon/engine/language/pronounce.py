@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import lts
-from .languages import Language, resolve
+from .languages import Language, resolve, stand_ins
 from ..errors import TranscriptError
 from .phonemes import PHONEMES, strip_stress
 from .text import Word
@@ -131,6 +131,15 @@ class Pronunciation:
     word: str
     phones: list[str]
     source: str  # "inline", "ipa", "user", "cmudict", "derived", "rules", "espeak"
+    #: The phones the English acoustic model is asked to find, one for each of ``phones``, when they
+    #: differ (a word read from IPA: :func:`.languages.stand_ins`).
+    aligned: list[str] | None = None
+
+    def __post_init__(self):
+        if self.source in ("ipa", "espeak") and self.aligned is None:
+            subs = stand_ins()
+            aligned = [subs.get(p, p) for p in self.phones]
+            self.aligned = aligned if aligned != self.phones else None
 
 
 #: Han characters (kanji): Japanese needs their reading, which eSpeak NG's ja voice does not have.

@@ -98,11 +98,20 @@ class Word:
     ipa: str | None = None
 
 
+def plain_ipa(text: str) -> str:
+    """IPA as :mod:`.ipa` reads it: ``'`` typed for the ejective mark ``ʼ``
+    and ``:`` for the length mark ``ː``; superscript modifier letters it has
+    no use for (``ˢ`` of a released stop, ``ˀ`` of glottalisation) dropped,
+    as they change nothing the mouth shows."""
+    text = text.replace("'", "ʼ").replace(":", "ː")
+    return "".join(ch for ch in text
+                   if ch in ipa.MODIFIERS or unicodedata.category(ch) not in ("Lm", "Sk"))
+
+
 def ipa_word(tok: str) -> Word:
     """A word written in IPA between slashes; a symbol that is not IPA is a
     :class:`TranscriptError` naming it."""
-    # Typed on a plain keyboard: ' for the ejective mark ʼ, : for the length mark ː.
-    body = tok[1:-1].replace("'", "ʼ").replace(":", "ː")
+    body = plain_ipa(tok[1:-1])
     try:
         phones = ipa.to_arpabet(body)
     except ipa.UnknownSymbol as exc:
