@@ -110,18 +110,40 @@ def test_slavic_turkic_semitic_and_indic_scripts():
 def test_east_asian_scripts():
     ko = dict(phones("엄마 밥", "ko"))
     assert ko["밥"] == ["P", "AH", "P"] and "M" in ko["엄마"]
-    # A run of Han characters or kana between punctuation is one word.
+    # A run of Han characters between punctuation is one word in Chinese; Japanese is cut into words.
     zh = phones("妈妈买面包。你好！", "zh")
     assert [w for w, _ in zh] == ["妈妈买面包", "你好"]
     assert zh[0][1][:4] == ["M", "AA", "M", "AA"] and zh[0][1][-2] == "P"
     ja = phones("ママはパンをたべます。", "ja")
-    assert len(ja) == 1 and ja[0][1][:4] == ["M", "AA", "M", "AA"] and "B" in ja[0][1]
+    assert ja[0] == ("ママ", ["M", "AA", "M", "AA"]) and ja[2] == ("パン", ["P", "AA", "NG"])
+    assert "".join(w for w, _ in ja) == "ママはパンをたべます" and "B" in ja[-1][1]
 
 
-def test_japanese_kanji_need_their_reading():
+def test_japanese_is_cut_into_words_and_kanji_read():
     lex = Lexicon.with_user_file(None, "ja")
-    with pytest.raises(TranscriptError, match="kanji need their reading"):
-        lex.pronounce(normalize("日本語です", "ja")[0])
+    words = normalize("私の名前はマリです。東京に行きました", "ja")
+    assert [w.text for w in words] == ["私", "の", "名前", "は", "マリ", "です", "東京", "に", "行き", "ました"]
+    got = {w.text: lex.pronounce(w).phones for w in words}
+    assert got["私"] == ["W", "AA", "T", "AA", "SH", "IY"]          # watashi
+    assert got["名前"][:4] == ["N", "AA", "M", "AA"]                # namae
+    assert got["は"] == ["W", "AA"]                                 # the topic particle is "wa"
+    assert got["マリ"][0] == "M"
+
+
+def test_japanese_kanji_without_pykakasi_ask_for_their_reading(monkeypatch):
+    from addon.engine.language import japanese
+
+    monkeypatch.setattr(japanese, "_kakasi", lambda: None)
+    monkeypatch.setattr(japanese, "_KAKASI", None)
+    from addon.engine.language import pronounce
+
+    monkeypatch.setattr(pronounce, "_SPOKEN", {})
+    words = normalize("日本語です。ママ", "ja")
+    assert [w.text for w in words] == ["日本語です", "ママ"]        # without it a run is one word
+    lex = Lexicon.with_user_file(None, "ja")
+    with pytest.raises(TranscriptError, match="kanji need their reading, and pykakasi is not installed"):
+        lex.pronounce(words[0])
+    assert lex.pronounce(words[1]).phones == ["M", "AA", "M", "AA"]
 
 
 def test_pause_punctuation_stage_directions_and_symbols_in_other_languages():
@@ -176,14 +198,16 @@ LINES = [
     ("de", "de", "Guten Morgen, mein Name ist Paul und ich bin müde."),
     ("es", "es", "Buenos días, me llamo Pablo y vivo en Madrid."),
     ("ja", "ja", "こんにちは、わたしのなまえはまりです。"),
+    ("ja", "ja", ("私の名前はマリです。毎晩パンを食べます。", "わたしのなまえわまりです。まいばんぱんをたべます。")),
     ("zh", "cmn", "你好，我叫马明，我们吃饭吧。"),
     ("ru", "ru", "Мама мыла раму, а папа пил молоко."),
 ]
 
 
-@pytest.mark.parametrize("code, voice, text", LINES, ids=[c for c, _, _ in LINES])
+@pytest.mark.parametrize("code, voice, text", LINES, ids=[f"{c}{k}" for k, (c, _, _) in enumerate(LINES)])
 def test_a_spoken_line_is_aligned_and_the_lips_close(code, voice, text):
-    snd = spoken(text, voice)
+    text, said = text if isinstance(text, tuple) else (text, text)   # kanji: eSpeak NG speaks the kana
+    snd = spoken(said, voice)
     result = analyze(snd, text, language=code, fps=100)
     doc = result.to_dict()
     assert doc["language"] == code

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import bisect
 import os
-import re
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -142,10 +141,6 @@ class Pronunciation:
             self.aligned = aligned if aligned != self.phones else None
 
 
-#: Han characters (kanji): Japanese needs their reading, which eSpeak NG's ja voice does not have.
-_KANJI = re.compile(r"[\u3400-\u4dbf\u4e00-\u9fff\uf900-\ufaff]")
-
-
 @dataclass
 class Lexicon:
     """Looks words up: user entries shadow the CMU dictionary (English) or
@@ -197,12 +192,14 @@ class Lexicon:
         from . import espeak
 
         lang = self.language
-        if lang.code == "ja" and _KANJI.search(word.source):
-            raise TranscriptError(f"{word.source!r}: Japanese is read from kana, and kanji need their reading; "
-                                  "write the word in hiragana or katakana, or its IPA between slashes")
         key = (lang.espeak, word.source)
         if key not in _SPOKEN:
-            _SPOKEN[key] = espeak.pronounce(word.source, lang.espeak, lang.phone_fixes)
+            written = word.source
+            if lang.code == "ja":
+                from . import japanese
+
+                written = japanese.reading(written)
+            _SPOKEN[key] = espeak.pronounce(written, lang.espeak, lang.phone_fixes)
         return list(_SPOKEN[key])
 
     # -- morphology -------------------------------------------------------

@@ -19,9 +19,9 @@ the words that are actually heard:
 
 All that is for English, the default.  A transcript in another language
 (:mod:`.languages`) keeps its words as written, numbers and symbols
-included, for eSpeak NG to read in that language (:mod:`.espeak`); stage
-directions, pause punctuation (``。、，`` too), braces and slashes work as
-above.
+included, for eSpeak NG to read in that language (:mod:`.espeak`; Japanese is cut into words and its kanji
+read by :mod:`.japanese`); stage directions, pause punctuation (``。、，``
+too), braces and slashes work as above.
 """
 
 from __future__ import annotations
@@ -183,7 +183,7 @@ def normalize(text: str, language: str | Language | None = None) -> list[Word]:
         raise TranscriptError("the transcript is empty")
     lang = resolve(language)
     if not lang.is_english:
-        return _normalize_other(text)
+        return _normalize_other(text, lang)
     text = text.translate(_QUOTES)
     lines = text.splitlines()
     # A line holding only a roman numeral is a heading (a sonnet's number).
@@ -321,11 +321,12 @@ def _in_word(ch: str) -> bool:
     return unicodedata.category(ch)[0] in "LMN"
 
 
-def _scan(text: str) -> tuple[list[Word], list[tuple[str, str]]]:
+def _scan(text: str, split=None) -> tuple[list[Word], list[tuple[str, str]]]:
     """Words of a transcript in another language, and the pieces left out.
     A word is a run of letters (with their combining marks, digits, and
     ``'`` or ``-`` between letters), as written: a run of Han characters or
-    kana between punctuation is one word."""
+    kana between punctuation is one word, unless ``split`` (a run -> its
+    words) cuts it."""
     text = _strip_stage_directions(text.translate(_QUOTES))
     words: list[Word] = []
     skipped: list[tuple[str, str]] = []
@@ -363,7 +364,7 @@ def _scan(text: str) -> tuple[list[Word], list[tuple[str, str]]]:
                     words.append(Word(tok.lower(), text[i:end + 1], [p.upper() for p in phones]))
                     i = end + 1
                     continue
-            words.append(Word(tok.lower(), tok))
+            words.extend(Word(piece.lower(), piece) for piece in (split(tok) if split else [tok]))
             i = j
             continue
         if not ch.isspace() and unicodedata.category(ch)[0] in "NS" and ch not in "{}/":
@@ -379,8 +380,13 @@ def _scan(text: str) -> tuple[list[Word], list[tuple[str, str]]]:
     return words, skipped
 
 
-def _normalize_other(text: str) -> list[Word]:
-    words, skipped = _scan(text)
+def _normalize_other(text: str, lang: Language) -> list[Word]:
+    split = None
+    if lang.code == "ja":
+        from . import japanese
+
+        split = japanese.words
+    words, skipped = _scan(text, split)
     if not words:
         if skipped:
             raise TranscriptError("the transcript has no words the aligner can use: " + describe_skipped(skipped))
