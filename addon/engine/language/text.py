@@ -334,7 +334,7 @@ def _scan(text: str, split=None) -> tuple[list[Word], list[tuple[str, str]]]:
     while i < n:
         m = _OTHER_TOKEN.match(text, i)
         ch = text[i]
-        if m and not (m.lastgroup == "pause" and ch in "'-"):
+        if m:
             tok = m.group()
             if m.lastgroup == "pause":
                 if words:
