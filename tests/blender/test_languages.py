@@ -1,0 +1,42 @@
+"""A line in another language, lip-synced by the installed extension: eSpeak
+NG (from the extension's espeakng-loader wheel) reads German and Japanese
+(kanji through pykakasi), and speaks the line the test aligns."""
+
+from __future__ import annotations
+
+import os
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from conftest import MODULE
+
+
+def _spoken(espeak, audio, text, voice):
+    samples, rate = espeak.synthesize(text, voice)
+    pad = np.zeros(int(0.3 * rate), np.float32)
+    line = np.concatenate([pad, samples.astype(np.float32) / 32768.0, pad])
+    line += np.random.default_rng(0).normal(0.0, 1e-3, line.size).astype(np.float32)   # a room's noise floor
+    return audio.from_samples(line, rate)
+
+
+@pytest.mark.parametrize("code, voice, text, said", [
+    ("de", "de", "Mein Bruder baut 23 Boote.", "Mein Bruder baut 23 Boote."),
+    ("ja", "ja", "私の名前はマリです。", "わたしのなまえわまりです。"),
+])
+def test_the_extension_aligns_a_line_in_another_language(extension, code, voice, text, said):
+    # The wheels are installed (test_versions.test_installed_wheels_are_this_pythons); eSpeak NG's library loads.
+    assert os.path.isfile(import_module("espeakng_loader").get_library_path())
+    engine = import_module(MODULE + ".engine")
+    espeak = import_module(MODULE + ".engine.language.espeak")
+    audio = import_module(MODULE + ".engine.audio")
+    result = engine.analyze(_spoken(espeak, audio, said, voice), text, language=code, fps=100)
+    doc = result.to_dict()
+    assert doc["language"] == code
+    assert len(doc["words"]) >= 5 and not any(w["estimated"] for w in doc["words"])
+    closing = [p for p in result.alignment.phones if p.phone in ("P", "B", "M")]
+    assert closing
+    for p in closing:
+        inside = (result.times >= p.start - 0.03) & (result.times <= p.end + 0.03)
+        assert result.closure[inside].max() >= 0.5
