@@ -36,6 +36,7 @@ class Options:
     workers: int = 0
     whole_character: bool = True         # also key the character's other meshes with those shape keys
     emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
+    language: str | None = None          # the transcript's language code (None: English)
 
 
 COARTICULATION = ("dominance", "rules")
@@ -311,7 +312,7 @@ def analyze(plan: Plan, progress=None) -> Analysis:
                               fps=plan.fps, dictionary=o.dictionary,
                               settings=AlignSettings(workers=o.workers), progress=progress,
                               emotion_changes=plan.emotions, emotion_fade=o.emotion_fade,
-                              emotion_lookup=plan.find_preset)
+                              emotion_lookup=plan.find_preset, language=o.language)
     return Analysis(result, time.perf_counter() - t0)
 
 

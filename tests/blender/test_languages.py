@@ -40,3 +40,36 @@ def test_the_extension_aligns_a_line_in_another_language(extension, code, voice,
     for p in closing:
         inside = (result.times >= p.start - 0.03) & (result.times <= p.end + 0.03)
         assert result.closure[inside].max() >= 0.5
+
+
+def test_command_language_option_and_manifest_column(scene, tmp_path, capsys):
+    """``blender --command lipsync``: --language for every line, a manifest's
+    ``language`` column per line, and an unknown code named."""
+    espeak = import_module(MODULE + ".engine.language.espeak")
+    audio = import_module(MODULE + ".engine.audio")
+    command = import_module(MODULE + ".blender.command")
+    import bpy
+    import wave
+
+    for name, voice, text in (("de", "de", "Mama baut ein Boot."), ("es", "es", "Mi madre bebe mucho.")):
+        snd = _spoken(espeak, audio, text, voice)
+        with wave.open(str(tmp_path / f"{name}.wav"), "wb") as w:
+            w.setnchannels(1)
+            w.setsampwidth(2)
+            w.setframerate(snd.rate)
+            w.writeframes((np.clip(snd.samples, -1, 1) * 32767).astype("<i2").tobytes())
+    manifest = tmp_path / "lines.csv"
+    manifest.write_text("audio,mesh,frame,text,language\n"
+                        f"{tmp_path / 'de.wav'},Ada,10,Mama baut ein Boot.,de\n"
+                        f"{tmp_path / 'es.wav'},Kit,10,Mi madre bebe mucho.,\n"
+                        f"{tmp_path / 'es.wav'},Kit,200,Mi madre bebe mucho.,xx\n", encoding="utf-8")
+    code = command.execute(["--manifest", str(manifest), "--language", "spa"])
+    out = capsys.readouterr()
+    assert code == 1 and "lipsync: 2 of 3 lip-synced, 1 problem" in out.out
+    err = [ln for ln in out.err.splitlines() if ln.startswith("lipsync: line")]
+    assert len(err) == 1 and err[0].startswith("lipsync: line 4: unknown language 'xx'")
+    assert bpy.data.objects["Ada"].data.shape_keys.animation_data.action is not None
+    assert bpy.data.objects["Kit"].data.shape_keys.animation_data.action is not None
+    assert command.execute(["--audio", str(tmp_path / "de.wav"), "--mesh", "Ada", "--text", "Mama",
+                            "--language", "klingonish"]) == 1
+    assert "unknown language 'klingonish'" in capsys.readouterr().err
