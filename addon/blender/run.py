@@ -19,6 +19,7 @@ from ..engine.presets import Preset
 from ..engine.render import viseme_set_for
 from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
+from ..engine.language import resolve_language
 from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
 from . import compat, emotion_markers, keying, userdata
@@ -61,8 +62,9 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     elif not tolerance >= 0:
         raise LipSyncError(f"the key reduction tolerance must be 0 or more (0 keys every frame), got {tolerance}")
     dictionary = dictionary or st.dictionary
+    language = resolve_language(st.language).code if st.language.strip() else None
     return Options(preset, coarticulation, tolerance, bpy.path.abspath(dictionary) if dictionary else None,
-                   whole_character=st.whole_character, emotion_fade=st.emotion_fade)
+                   whole_character=st.whole_character, emotion_fade=st.emotion_fade, language=language)
 
 
 @dataclass

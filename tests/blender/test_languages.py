@@ -73,3 +73,38 @@ def test_command_language_option_and_manifest_column(scene, tmp_path, capsys):
     assert command.execute(["--audio", str(tmp_path / "de.wav"), "--mesh", "Ada", "--text", "Mama",
                             "--language", "klingonish"]) == 1
     assert "unknown language 'klingonish'" in capsys.readouterr().err
+
+
+def test_the_panels_language_drives_generate(scene, tmp_path):
+    """The Language field of the panel: a German line from an audio file is
+    keyed with the lips closing on its /m b/, and an unknown code is the
+    operator's error, naming it."""
+    import bpy
+    import wave
+
+    espeak = import_module(MODULE + ".engine.language.espeak")
+    audio = import_module(MODULE + ".engine.audio")
+    snd = _spoken(espeak, audio, "Mama baut ein Boot.", "de")
+    path = tmp_path / "de.wav"
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(snd.rate)
+        w.writeframes((np.clip(snd.samples, -1, 1) * 32767).astype("<i2").tobytes())
+    st = scene.emotive_lipsync
+    st.source, st.audio_file, st.start_frame, st.text = "FILE", str(path), 1, "Mama baut ein Boot."
+    st.language = "xx"
+    with pytest.raises(RuntimeError, match="unknown language 'xx'"):
+        bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", mesh="Ada")
+    st.language = "deu"
+    assert bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", mesh="Ada") == {"FINISHED"}
+    fcurves = bpy.data.objects["Ada"].data.shape_keys.animation_data.action
+    assert fcurves is not None
+    run = import_module(MODULE + ".blender.run")
+    assert run.options(scene).language == "de"
+    # The lips close on the m of Mama and the b of baut and Boot: the MBP key reaches 1 three times or more.
+    from conftest import fcurve_values
+
+    _frames, mbp = fcurve_values(bpy.data.objects["Ada"], "MBP")
+    peaks = np.flatnonzero((mbp[1:-1] >= 0.9) & (mbp[1:-1] >= mbp[:-2]) & (mbp[1:-1] > mbp[2:]))
+    assert len(peaks) >= 3
