@@ -165,8 +165,9 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
         text = sources.transcript(audio_path=clip.audio_path)[0]
     if line.emotion:
         options = dataclasses.replace(options, emotion=userdata.load_preset(line.emotion))
-    if line.language:
-        options = dataclasses.replace(options, language=line.language)
+    language = line.language or (sources.strip_language(strip) if strip is not None else None)
+    if language:
+        options = dataclasses.replace(options, language=language)
     return run.generate(scene, obj, clip, text, options)
 
 

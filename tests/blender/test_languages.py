@@ -108,3 +108,35 @@ def test_the_panels_language_drives_generate(scene, tmp_path):
     _frames, mbp = fcurve_values(bpy.data.objects["Ada"], "MBP")
     peaks = np.flatnonzero((mbp[1:-1] >= 0.9) & (mbp[1:-1] >= mbp[:-2]) & (mbp[1:-1] > mbp[2:]))
     assert len(peaks) >= 3
+
+
+def test_a_strips_language_in_batch_runs(scene, tmp_path):
+    """*Generate for All Strips* and the command read each strip's
+    ``lipsync_language`` (like its ``lipsync_text``); a bad one names the strip."""
+    import bpy
+    import wave
+
+    from conftest import add_strip, fcurve_values
+
+    espeak = import_module(MODULE + ".engine.language.espeak")
+    audio = import_module(MODULE + ".engine.audio")
+    snd = _spoken(espeak, audio, "Mama baut ein Boot.", "de")
+    path = tmp_path / "de.wav"
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(snd.rate)
+        w.writeframes((np.clip(snd.samples, -1, 1) * 32767).astype("<i2").tobytes())
+    (tmp_path / "de.txt").write_text("Mama baut ein Boot.", encoding="utf-8")
+    good = add_strip(scene, "Ada_de", str(path), frame=1, channel=1)
+    good["lipsync_language"] = "deu"
+    bad = add_strip(scene, "Kit_de", str(path), frame=1, channel=2)
+    bad["lipsync_language"] = "xx"
+    assert bpy.ops.emotive_lipsync.generate_all() == {"FINISHED"}   # one strip done, one problem
+    _frames, mbp = fcurve_values(bpy.data.objects["Ada"], "MBP")
+    assert mbp.max() >= 0.9
+    assert bpy.data.objects["Kit"].data.shape_keys.animation_data is None
+    sources = import_module(MODULE + ".blender.sources")
+    assert sources.strip_language(good) == "de"
+    with pytest.raises(Exception, match="strip 'Kit_de': its lipsync_language: unknown language 'xx'"):
+        sources.strip_language(bad)
