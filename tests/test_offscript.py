@@ -164,3 +164,10 @@ def test_batch_counts_words_not_heard_per_line(tmp_path):
     assert p.returncode == 0, p.stderr
     assert re.search(r"line 2 \(.*a\.wav\): 5 words of the transcript not heard", p.stdout), p.stdout
     assert "line 3" not in p.stdout
+
+
+def test_no_transcript_in_another_language_says_recognition_is_english_only():
+    from addon.engine.errors import LipSyncError
+
+    with pytest.raises(LipSyncError, match="German needs its transcript.*English only"):
+        analyze(HELLO, None, language="de")

@@ -3,7 +3,8 @@
     .venv/bin/python tools/build_extension.py [--platform linux-x64 ...] [--output-dir dist]
 
 The wheels listed in ``blender_manifest.toml`` (parselmouth and
-pocketsphinx, for Python 3.11 and 3.13) are downloaded once into
+pocketsphinx, for Python 3.11 and 3.13; espeakng-loader, pykakasi and
+jaconv, for any Python 3) are downloaded once into
 ``build/wheels`` (never committed).  Each run stages the package in a
 temporary folder of its own (the ``addon`` package at the zip's root, beside
 the manifest and the wheels), so several builds may run at once, and
@@ -42,8 +43,12 @@ WHEELS = BUILD / "wheels"
 BUILD_TAGGED = ("cp313",)
 BUILD_TAG = "1"
 
+#: Every platform an extension can name; a pure-Python wheel ("any") serves them all.
+ALL_PLATFORMS = ("linux-x64", "windows-x64", "macos-arm64", "macos-x64")
+
 # Wheel platform tag -> extension platforms it serves.
 _TAG_PLATFORMS = (
+    ("any", "", ALL_PLATFORMS),
     ("manylinux", "x86_64", ("linux-x64",)),
     ("win_amd64", "", ("windows-x64",)),
     ("macosx", "universal2", ("macos-arm64", "macos-x64")),
@@ -77,10 +82,16 @@ def staged_name(filename: str) -> str:
     return filename
 
 
+def for_any_python(filename: str) -> bool:
+    """A wheel for every Python 3 (``py3``), not one CPython version."""
+    return wheel_tags(filename)[2].startswith("py")
+
+
 def check_pythons(wheels: list[str], platforms: list[str]) -> None:
     """Every platform gets the same packages for every Python the manifest
     names: a wheel missing for one Python would break the extension on the
-    Blender releases using it."""
+    Blender releases using it.  A ``py3`` wheel serves them all."""
+    wheels = [w for w in wheels if not for_any_python(w)]
     pythons = sorted({wheel_tags(w)[2] for w in wheels})
     for platform in platforms:
         have = {py: sorted({wheel_tags(w)[0] for w in wheels
@@ -112,8 +123,10 @@ def download(filename: str) -> Path:
         return target
     WHEELS.mkdir(parents=True, exist_ok=True)
     name, version, py, abi, tag = wheel_tags(filename)
+    # A py3 wheel is asked for as Python 3.11's; a cp311 one by its own version.
+    python = "3.11" if for_any_python(filename) else py[2:3] + "." + py[3:]
     cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--no-deps", "--only-binary", ":all:",
-           "--python-version", py[2:3] + "." + py[3:], "--implementation", py[:2], "--abi", abi,
+           "--python-version", python, "--implementation", py[:2], "--abi", abi,
            f"{name.replace('_', '-')}=={version}"]
     for t in tag.split("."):
         cmd += ["--platform", t]

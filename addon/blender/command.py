@@ -28,6 +28,7 @@ import bpy
 
 from ..engine import batch, visemes
 from ..engine.errors import LipSyncError
+from ..engine.language import resolve_language
 from ..engine.language.text import read_text_file
 from . import compat, run, sources, userdata
 
@@ -70,6 +71,9 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--coarticulation", choices=("dominance", "rules"))
     ap.add_argument("--tolerance", type=_tolerance, default=None, help="key reduction tolerance (0: every frame)")
     ap.add_argument("--dictionary", help="pronunciation dictionary file")
+    ap.add_argument("--language", metavar="CODE",
+                    help="language of the transcripts (de, deu, pt-BR, zh, ja ...; default: English); "
+                         "a manifest's 'language' column says it per line")
     out = ap.add_mutually_exclusive_group()
     out.add_argument("--save", action="store_true", help="save the .blend in place")
     out.add_argument("--output", metavar="FILE.blend", help="save to this file")
@@ -161,6 +165,9 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
         text = sources.transcript(audio_path=clip.audio_path)[0]
     if line.emotion:
         options = dataclasses.replace(options, emotion=userdata.load_preset(line.emotion))
+    language = line.language or (sources.strip_language(strip) if strip is not None else None)
+    if language:
+        options = dataclasses.replace(options, language=language)
     return run.generate(scene, obj, clip, text, options)
 
 
@@ -187,6 +194,8 @@ def execute(argv: list[str]) -> int:
             raise UsageError("--audio needs --mesh: the face mesh to key")
         fixed = _fixed_text(args)
         options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary)
+        if args.language:
+            options = dataclasses.replace(options, language=resolve_language(args.language).code)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)

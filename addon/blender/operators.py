@@ -8,6 +8,7 @@ before anything has been written.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import bpy
@@ -170,7 +171,9 @@ property, else the mesh its name starts with)"""
                     run.check_mesh(obj)
                     clip = sources.strip_clip(scene, strip)
                     text, _where = sources.strip_transcript(strip, clip.audio_path)
-                    done.append(run.generate(scene, obj, clip, text, options, progress))
+                    language = sources.strip_language(strip)
+                    line_options = dataclasses.replace(options, language=language) if language else options
+                    done.append(run.generate(scene, obj, clip, text, line_options, progress))
                 except LipSyncError as exc:
                     problems.append(str(exc))
         finally:

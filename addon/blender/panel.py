@@ -163,6 +163,7 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         if st.text_block is None:
             col.prop(st, "text", text="Text")
             col.operator(LIPSYNC_OT_load_transcript.bl_idname, icon="FILE_TEXT", text="Load .txt")
+        col.prop(st, "language")
 
         layout.prop(st, "target")
         obj, _why = _face(context)

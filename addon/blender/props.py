@@ -132,6 +132,9 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                                                          "audio, is used when this is empty)")
     text_block: PointerProperty(name="Text Block", type=bpy.types.Text,
                                 description="A text block holding the transcript")
+    language: StringProperty(name="Language", default="",
+                             description="Language of the transcript: an ISO 639-1 or 639-3 code or a BCP-47 tag "
+                                         "(de, deu, pt-BR, zh, ja ...); empty: English")
     target: PointerProperty(name="Face", type=bpy.types.Object, poll=_target_poll,
                             description="Mesh whose shape keys are animated (empty: the active object)")
     emotion: StringProperty(name="Emotion", default="neutral",

@@ -19,6 +19,7 @@ from ..engine.presets import Preset
 from ..engine.render import viseme_set_for
 from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
+from ..engine.language import resolve_language
 from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
 from . import compat, emotion_markers, keying, userdata
@@ -36,6 +37,7 @@ class Options:
     workers: int = 0
     whole_character: bool = True         # also key the character's other meshes with those shape keys
     emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
+    language: str | None = None          # the transcript's language code (None: English)
 
 
 COARTICULATION = ("dominance", "rules")
@@ -60,8 +62,9 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     elif not tolerance >= 0:
         raise LipSyncError(f"the key reduction tolerance must be 0 or more (0 keys every frame), got {tolerance}")
     dictionary = dictionary or st.dictionary
+    language = resolve_language(st.language).code if st.language.strip() else None
     return Options(preset, coarticulation, tolerance, bpy.path.abspath(dictionary) if dictionary else None,
-                   whole_character=st.whole_character, emotion_fade=st.emotion_fade)
+                   whole_character=st.whole_character, emotion_fade=st.emotion_fade, language=language)
 
 
 @dataclass
@@ -336,7 +339,7 @@ def analyze(plan: Plan, progress=None) -> Analysis:
                               fps=plan.fps, dictionary=o.dictionary,
                               settings=AlignSettings(workers=o.workers), progress=progress,
                               emotion_changes=plan.emotions, emotion_fade=o.emotion_fade,
-                              emotion_lookup=plan.find_preset)
+                              emotion_lookup=plan.find_preset, language=o.language)
     return Analysis(result, time.perf_counter() - t0)
 
 

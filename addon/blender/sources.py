@@ -20,12 +20,14 @@ import bpy
 
 from ..engine.audio import Audio
 from ..engine.errors import AudioError, LipSyncError, TranscriptError
+from ..engine.language import resolve_language
 from ..engine.language.text import read_text_file
 from . import compat
 
 #: Custom properties a sound strip may carry for batch runs.
 STRIP_TARGET = "lipsync_target"
 STRIP_TEXT = "lipsync_text"
+STRIP_LANGUAGE = "lipsync_language"
 
 
 @dataclass
@@ -175,6 +177,18 @@ def strip_transcript(strip, audio_path: str | None) -> tuple[str, str]:
                                   "which is not a text block")
         return transcript(text_block=block)
     return transcript(audio_path=audio_path)
+
+
+def strip_language(strip) -> str | None:
+    """For batch runs: the language code of the strip's ``lipsync_language``
+    (None: the run's own); an unknown code names the strip."""
+    code = strip.get(STRIP_LANGUAGE)
+    if code is None or not str(code).strip():
+        return None
+    try:
+        return resolve_language(str(code)).code
+    except LipSyncError as exc:
+        raise LipSyncError(f"strip {strip.name!r}: its lipsync_language: {exc}") from None
 
 
 def strip_target(strip, fallback=None):

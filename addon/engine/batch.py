@@ -47,11 +47,11 @@ from .emotion_track import DEFAULT_FADE
 from .errors import AudioError, LipSyncError
 
 #: Manifest columns this module reads; Blender's command also reads the last three.
-COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", "fps", "output",
+COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", "fps", "output", "language",
            "mesh", "strip", "frame")
 FORMATS = ("json", "csv")
 #: The columns that shape a line's outputs, kept in the record of what made them.
-ROW_COLUMNS = COLUMNS[:8]
+ROW_COLUMNS = COLUMNS[:9]
 #: The layout of that record ("produced_by"); a new layout makes every output stale.
 RECORD_SCHEMA = 1
 #: A CSV output's record is kept beside it, in a file named so (a JSON output holds its own).
@@ -68,6 +68,7 @@ class Defaults:
     coarticulation: str = "dominance"
     dictionary: str | None = None
     emotion_fade: float = DEFAULT_FADE
+    language: str = "en"
 
 
 @dataclass
@@ -82,6 +83,7 @@ class Line:
     emotion: str | None = None
     viseme_set: str | None = None
     fps: str | None = None
+    language: str | None = None
     outputs: dict[str, str] = field(default_factory=dict)   # format -> path
     extra: dict[str, str] = field(default_factory=dict)     # mesh, strip, frame (Blender)
     problem: str | None = None          # why the line cannot be run
@@ -146,6 +148,10 @@ def _rows(path: Path) -> Iterator[tuple[int, dict]]:
     if not {"audio", "strip", "mesh"} & set(header):
         raise LipSyncError(f"manifest {path}: the CSV header must name an 'audio' column "
                            f"(found: {', '.join(header) or 'nothing'})")
+    unknown = [h for h in header if h and h not in COLUMNS]
+    if unknown:
+        raise LipSyncError(f"manifest {path}: unknown column{'s' if len(unknown) > 1 else ''} "
+                           f"{', '.join(repr(h) for h in unknown)}; the columns are {', '.join(COLUMNS)}")
     reader.fieldnames = header
     for row in reader:
         if not any((v or "").strip() for v in row.values() if isinstance(v, str)):
@@ -199,6 +205,10 @@ def _line(number: int, row: dict, base: Path, formats, out_dir) -> Line:
     if "__problem__" in row:
         return Line(number, problem=row["__problem__"])
     row = {str(k).strip().lower(): ("" if v is None else str(v)) for k, v in row.items()}
+    unknown = [k for k in row if k not in COLUMNS]
+    if unknown:
+        return Line(number, problem=f"unknown field{'s' if len(unknown) > 1 else ''} "
+                                    f"{', '.join(repr(k) for k in unknown)}; the fields are {', '.join(COLUMNS)}")
     line = Line(number,
                 audio=_resolve(base, row.get("audio")),
                 transcript=_resolve(base, row.get("transcript")),
@@ -207,6 +217,7 @@ def _line(number: int, row: dict, base: Path, formats, out_dir) -> Line:
                 emotion=_named_or_file(base, row.get("emotion")),
                 viseme_set=_named_or_file(base, row.get("viseme_set")),
                 fps=(row.get("fps") or "").strip() or None,
+                language=(row.get("language") or "").strip() or None,
                 extra={k: row[k].strip() for k in ("mesh", "strip", "frame") if row.get(k, "").strip()},
                 row={k: row[k] for k in ROW_COLUMNS if row.get(k, "").strip()})
     given = [k for k in ("transcript", "text", "alignment") if getattr(line, k)]
@@ -214,9 +225,21 @@ def _line(number: int, row: dict, base: Path, formats, out_dir) -> Line:
         line.problem = "no audio file named"
     elif len(given) > 1 and not (given == ["transcript", "alignment"] or given == ["text", "alignment"]):
         line.problem = "give one of transcript or text, not both"
+    elif line.language is not None and _language_problem(line.language):
+        line.problem = _language_problem(line.language)
     elif line.audio is not None:
         line.outputs = output_paths(line, base, formats, out_dir, row.get("output", "").strip() or None)
     return line
+
+
+def _language_problem(code: str) -> str | None:
+    from .language import resolve_language
+
+    try:
+        resolve_language(code)
+    except LipSyncError as exc:
+        return str(exc)
+    return None
 
 
 def read_manifest(path: str | os.PathLike, formats: Iterable[str] = ("json",),
@@ -363,6 +386,8 @@ def produced_by(line: Line, defaults: Defaults, before: dict | None = None,
                 "viseme_set": None if line.viseme_set else defaults.viseme_set,
                 "fps": None if line.fps else str(defaults.fps),
                 "coarticulation": defaults.coarticulation, "emotion_fade": float(defaults.emotion_fade)}
+    if (line.language or defaults.language or "en") != "en":     # English lines keep the records they had
+        settings["language"] = None if line.language else defaults.language
     files = {"preset": digests.preset(line.emotion or defaults.emotion),
              "viseme_set": digests.viseme_set(line.viseme_set or defaults.viseme_set or "default")}
     text = line_text(line)
@@ -562,6 +587,7 @@ def analyze_line(line: Line, defaults: Defaults):
                    emotion=line.emotion or defaults.emotion, coarticulation_model=defaults.coarticulation,
                    fps=line.fps or defaults.fps, dictionary=defaults.dictionary,
                    emotion_fade=defaults.emotion_fade, transcript_path=transcript_file(line),
+                   language=line.language or defaults.language,
                    settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
 
 

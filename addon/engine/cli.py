@@ -31,6 +31,9 @@ def _style_options(p: argparse.ArgumentParser, per_line: bool) -> None:
     p.add_argument("--fps", default="30",
                    help=f"frames per second{unless}: 24, 25, 30, 60, 23.976, 29.97, 24000/1001 ... (default: 30)")
     p.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
+    p.add_argument("--language", metavar="CODE", default="en",
+                   help=f"language of the transcript{unless}: an ISO 639-1 or 639-3 code or a BCP-47 tag "
+                        "(de, deu, pt-BR, zh, ja ...; default: en); 'list' shows them all")
 
 
 def _check_options(args) -> None:
@@ -42,6 +45,12 @@ def _check_options(args) -> None:
     timeout = getattr(args, "cluster_timeout", 60.0)
     if not 0 < timeout < float("inf"):
         raise LipSyncError(f"--cluster-timeout must be more than 0 seconds, not {timeout:g}")
+    from .language import resolve_language
+
+    try:
+        resolve_language(args.language)
+    except LipSyncError as exc:
+        raise LipSyncError(f"--language: {exc}") from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -98,6 +107,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "list":
         print("viseme sets:", ", ".join(visemes.builtin_names()))
         print("emotions:   ", ", ".join(presets.builtin_names()))
+        from .language import supported_languages
+
+        print("languages:  ", supported_languages())
         return 0
     if args.command == "learn":
         return _learn(args)
@@ -151,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         result = analyze(args.audio, text, alignment=args.alignment, viseme_set=args.viseme_set,
                          emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
                          dictionary=args.dictionary, settings=AlignSettings(workers=args.workers),
-                         emotion_fade=args.emotion_fade, transcript_path=args.transcript)
+                         emotion_fade=args.emotion_fade, transcript_path=args.transcript, language=args.language)
         result.notes[:0] = warnings
         for w in result.warnings:
             print(f"warning: {w}", file=sys.stderr)
@@ -216,7 +228,8 @@ def _batch_parser(sub) -> None:
     b = sub.add_parser("batch", help="lip-sync every line of a manifest (CSV or JSON lines)",
                        description="Lip-sync every line of a manifest: a CSV file with a header or a JSON-lines "
                                    "file whose lines name audio, and transcript (file), text (inline) or "
-                                   "alignment (file); optionally emotion, viseme_set, fps and output. Relative "
+                                   "alignment (file); optionally emotion, viseme_set, fps, language and output "
+                                   "(any other column is an error). Relative "
                                    "paths are read from the manifest's folder. A line is skipped when its "
                                    "outputs record that they were made from the same files, manifest row, "
                                    "options and engine (see --force).")
@@ -241,7 +254,7 @@ def _batch(args) -> int:
 
     formats = tuple(f for f in ("json", "csv") if getattr(args, f)) or ("json",)
     defaults = batch.Defaults(args.emotion, args.viseme_set, args.fps, args.coarticulation, args.dictionary,
-                              args.emotion_fade)
+                              args.emotion_fade, args.language)
     try:
         _check_options(args)
         report = batch.run(args.manifest, defaults, formats=formats, out_dir=args.out, workers=args.workers,

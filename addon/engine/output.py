@@ -74,6 +74,7 @@ class Result:
     emotions: list[dict] = field(default_factory=list)  # the emotion over time (inline tags, markers)
     #: The expression on the whole face: FACS action unit -> per frame, 0-1 (none under neutral).
     expression: dict[str, np.ndarray] = field(default_factory=dict)
+    language: str = "en"       # the transcript's language (its code in data/languages.json)
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -84,6 +85,7 @@ class Result:
             "viseme_set": self.viseme_set.name,
             "emotion": self.emotion,
             "coarticulation": self.model,
+            "language": self.language,
             "visemes": list(self.viseme_set.visemes),
             "words": [_word(w) for w in al.words],
             "phonemes": [{"phone": p.phone, "start": round(p.start, 4), "end": round(p.end, 4),

@@ -31,7 +31,7 @@ from .audio import Audio
 from .errors import AudioError, LipSyncError
 from .framerate import parse_fps
 from .importers import END_TOLERANCE, read_alignment
-from .language import Lexicon
+from .language import Lexicon, resolve_language
 from .output import Result
 from .render import check_model, render, viseme_set_for
 
@@ -101,7 +101,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             progress: Callable[[str, float], None] | None = None,
             emotion_changes: list | None = None, emotion_fade: float = emotion_track.DEFAULT_FADE,
             emotion_lookup: Callable[[str], presets.Preset] | None = None,
-            transcript_path: str | os.PathLike | None = None) -> Result:
+            transcript_path: str | os.PathLike | None = None, language: str | None = None) -> Result:
     """Audio + transcript (or an imported alignment) -> viseme curves.
 
     With no transcript (``text`` None) and no alignment, the words are
@@ -123,13 +123,16 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     :mod:`.emotion_track`.  ``emotion_lookup`` resolves a tag's name
     (default: :func:`presets.finder`: built-in names, and preset files
     relative to the folder of ``transcript_path``, the file the transcript
-    was read from, whose name errors in a tag also give).
+    was read from, whose name errors in a tag also give).  ``language`` is
+    the transcript's language, a code as users write it (``de``, ``deu``,
+    ``pt-BR``, ``zh``; default English; see :mod:`.language.languages`).
     """
     def report(step, frac):
         if progress:
             progress(step, frac)
 
     fps = parse_fps(fps)
+    lang = resolve_language(language)
     background = None
     preset = presets.load(emotion) if isinstance(emotion, (str, os.PathLike)) else presets.as_preset(emotion)
     vset = viseme_set_for(preset, viseme_set)
@@ -151,10 +154,13 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             raise AudioError(f"{name} is too short to hold speech ({snd.duration:.3f} s; "
                              f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
-        lexicon = Lexicon.with_user_file(dictionary)
+        lexicon = Lexicon.with_user_file(dictionary, lang)
         background = _voice_beside_alignment(snd, settings, voice_model)
         try:
             if text is None:
+                if not lang.is_english:
+                    raise LipSyncError(f"a line in {lang.name} needs its transcript: without one, speech is "
+                                       "recognised in English only")
                 al = recognize(snd, settings, lambda f: report("align", 0.1 + 0.7 * f))
             else:
                 al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
@@ -191,7 +197,7 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
                   model=coarticulation_model, alignment=al, pitch=r.pitch, intensity=r.intensity,
                   weights=r.weights, times=r.times, curves=r.curves, notes=notes, closure=closure,
                   warnings=list(snd.notes) + list(al.warnings), arousal=voice, emotions=emotions,
-                  expression=r.expression)
+                  expression=r.expression, language=lang.code)
 
 
 __all__ = ["analyze", "measure_voice", "MIN_SPEECH"]

@@ -21,6 +21,9 @@ import pytest
 from conftest import _USER, EXTENSION_DIR, FIXTURES, MODULE, extension_deprecations
 
 PACKAGES = {"praat_parselmouth": "0.4.7", "pocketsphinx": "5.1.1"}
+#: Wheels for any Python 3 (``py3``): eSpeak NG's library and data, and Japanese readings.
+ANY_PYTHON = {"espeakng_loader": "0.2.4", "pykakasi": "2.3.0", "jaconv": "0.5.0", "deprecated": "1.3.1",
+              "wrapt": "2.5.2"}
 PYTHONS = {"cp311", "cp313"}
 THIS_PYTHON = f"cp{sys.version_info.major}{sys.version_info.minor}"
 
@@ -35,8 +38,9 @@ def _zip_wheels(zip_path):
 
 
 def _tags(wheel):
+    """(name, version, Python tag); any pure-Python tag (``py3``, ``py2.py3``) is ``py3``."""
     parts = wheel[:-len(".whl")].split("-")
-    return parts[0], parts[1], parts[-3]
+    return parts[0], parts[1], "py3" if parts[-3].startswith("py") else parts[-3]
 
 
 def test_zip_carries_both_pythons_wheels(extension_zip):
@@ -44,7 +48,8 @@ def test_zip_carries_both_pythons_wheels(extension_zip):
     for w in wheels:
         assert f"wheels/{w}" in members, f"{w} is listed but not in the zip"
     found = {(name, version, py) for name, version, py in map(_tags, wheels)}
-    assert found == {(name, version, py) for name, version in PACKAGES.items() for py in PYTHONS}
+    assert found == ({(name, version, py) for name, version in PACKAGES.items() for py in PYTHONS}
+                     | {(name, version, "py3") for name, version in ANY_PYTHON.items()})
     assert len(wheels) == len(found)  # one wheel per package and Python on this platform
 
 
@@ -61,26 +66,27 @@ def test_this_blender_installs_only_its_pythons_wheels(extension_zip):
         return [w for w in wheels if w not in skipped]
 
     wheels, _members = _zip_wheels(extension_zip)
-    assert {_tags(w)[2] for w in installed(wheels)} == {"cp311"}
+    assert {_tags(w)[2] for w in installed(wheels)} == {"cp311", "py3"}
     ops = import_module("bl_pkg.bl_extension_ops")
     this_filter = getattr(ops, "_extensions_wheel_filter_for_this_system", None) \
         or ops._extensions_wheel_filter_for_platform  # 4.2.0
     kept = installed(this_filter(wheels))
-    assert {_tags(w)[2] for w in kept} == {THIS_PYTHON}
-    assert sorted(_tags(w)[0] for w in kept) == sorted(PACKAGES)
+    assert {_tags(w)[2] for w in kept} == {THIS_PYTHON, "py3"}
+    assert sorted(_tags(w)[0] for w in kept) == sorted({**PACKAGES, **ANY_PYTHON})
 
 
 def test_installed_wheels_are_this_pythons(extension):
     site = os.path.join(_USER, "extensions", ".local", "lib", f"python{sys.version_info.major}."
                         f"{sys.version_info.minor}", "site-packages")
     names = os.listdir(site)
-    assert {n for n in names if n.endswith(".dist-info")} == {f"{p}-{v}.dist-info" for p, v in PACKAGES.items()}
+    assert {n for n in names if n.endswith(".dist-info")} == {f"{p}-{v}.dist-info"
+                                                               for p, v in {**PACKAGES, **ANY_PYTHON}.items()}
     compiled = [os.path.join(root, f) for root, _dirs, files in os.walk(site) for f in files
                 if re.search(r"\.cpython-\d+-[^/]*\.so$", f)]
     assert len(compiled) >= 2  # parselmouth's module and pocketsphinx's
     suffix = importlib.machinery.EXTENSION_SUFFIXES[0]  # ".cpython-311-x86_64-linux-gnu.so"
     assert all(f.endswith(suffix) for f in compiled), compiled
-    for name in ("parselmouth", "pocketsphinx"):
+    for name in ("parselmouth", "pocketsphinx", "espeakng_loader", "pykakasi"):
         assert import_module(name)  # from the extension's wheels, or the dev environment's own
 
 

@@ -1,7 +1,9 @@
 """The aligner's front end: a written transcript, not phones.
 
 :func:`align_audio` normalises the transcript (:mod:`..language`),
-pronounces every word and aligns the phones to the audio with :func:`.align`;
+pronounces every word in the lexicon's language and aligns the phones to
+the audio with :func:`.align` (the English acoustic model, each phone of
+another language mapped to the English phone of the nearest mouth);
 the words the aligner cannot use (another script, symbols) are left out and
 said so in the alignment's notes and warnings.
 """
@@ -15,7 +17,7 @@ from typing import Callable
 from .. import audio as audio_mod
 from ..audio import Audio
 from ..errors import AlignmentError
-from ..language import Lexicon, describe_skipped, normalize, skipped_words
+from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words
 from .core import align, check_transcript_matches
 from .model import AlignSettings, Alignment
 from .verify import verify
@@ -28,10 +30,10 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     with ``check_take``, then check the transcript against the take
     (:func:`.verify.verify`: words not said, speech not scripted)."""
     lexicon = lexicon or Lexicon()
-    words = normalize(text)
+    words = normalize(text, lexicon.language)
     prons = [lexicon.pronounce(w) for w in words]
     try:
-        al = align(snd, [p.phones for p in prons], [w.pause_after for w in words],
+        al = align(snd, [p.aligned or p.phones for p in prons], [w.pause_after for w in words],
                    [w.text for w in words], [p.source for p in prons], settings, progress)
     except (BrokenProcessPool, MemoryError):
         raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
@@ -40,7 +42,8 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     if check_take:
         verify(snd, al, settings)
     check_transcript_matches(al)
-    skipped = skipped_words(text)
+    _show(al, prons)
+    skipped = skipped_words(text, lexicon.language)
     if skipped:
         n = len(skipped)
         warning = (f"{n} word{'s' if n > 1 else ''} of the transcript left out, the aligner cannot use "
@@ -48,6 +51,26 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         al.notes.insert(0, warning)
         al.warnings.insert(0, warning)
     return al
+
+
+def _show(al: Alignment, prons: list[Pronunciation]) -> None:
+    """Words aligned by stand-in phones (:attr:`.Pronunciation.aligned`)
+    get back the phones their mouth shows."""
+    by_word: dict[int, list] = {}
+    for p in al.phones:
+        by_word.setdefault(p.word_index, []).append(p)
+    for wi, pron in enumerate(prons):
+        if not pron.aligned:
+            continue
+        al.words[wi].phones = list(pron.phones)
+        got = by_word.get(wi, [])
+        if [p.phone for p in got] == pron.aligned:
+            for p, shown in zip(got, pron.phones):
+                p.phone = shown
+        else:   # the aligner changed the word's phones (a stretch placed by estimate): undo each stand-in alone
+            back = {a: s for a, s in zip(pron.aligned, pron.phones) if a != s}
+            for p in got:
+                p.phone = back.get(p.phone, p.phone)
 
 
 def align_file(path: str | os.PathLike, text: str, **kw) -> Alignment:

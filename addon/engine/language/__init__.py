@@ -13,14 +13,19 @@ rest of the engine asks it through the names below:
   stress, plus ``SIL``), with each phone's class and manner, and reads the
   labels other tools write (IPA, SAMPA, ARPAbet with stress);
 * :mod:`.ipa` maps IPA of any language to those phones by articulatory
-  features (tables in ``data/ipa.json``).
+  features (tables in ``data/ipa.json``);
+* :mod:`.languages` names the languages a transcript can be in (table in
+  ``data/languages.json``) and :mod:`.espeak` reads every one but English
+  with eSpeak NG, its IPA mapped by :mod:`.ipa`.
 """
 
 from .phonemes import (CLASSES, MANNER, PHONEMES, SILENCE, VOWELS, is_vowel, phone_class, strip_stress,
                        to_arpabet)
+from .languages import Language, resolve as resolve_language, supported as supported_languages
 from .pronounce import Lexicon, Pronunciation, cmudict
 from .text import Word, describe_skipped, normalize, read_text_file, skipped_words
 
-__all__ = ["CLASSES", "MANNER", "PHONEMES", "SILENCE", "VOWELS", "Lexicon", "Pronunciation", "Word", "cmudict",
+__all__ = ["CLASSES", "MANNER", "PHONEMES", "SILENCE", "VOWELS", "Language", "Lexicon", "Pronunciation", "Word",
+           "cmudict", "resolve_language", "supported_languages",
            "describe_skipped", "is_vowel", "normalize", "phone_class", "read_text_file", "skipped_words",
            "strip_stress", "to_arpabet"]

@@ -1,5 +1,7 @@
 """Pronunciations: the CMU dictionary, a user dictionary, inline overrides and
-letter-to-sound rules, in that order of trust (inline first).
+letter-to-sound rules, in that order of trust (inline first); a word written
+in IPA (``/pɛs/``) by its IPA; a word of another language than English by
+eSpeak NG (:mod:`.espeak`), after inline overrides and the user dictionary.
 
 A word is never dropped: if the dictionaries do not know it, it is split into
 a known stem and an ending (``beauty's``, ``tatter'd``, ``feel'st``,
@@ -17,12 +19,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import lts
+from .languages import Language, resolve, stand_ins
 from ..errors import TranscriptError
 from .phonemes import PHONEMES, strip_stress
 from .text import Word
 
 _LOCK = threading.Lock()
 _CMU: "_SortedDictionary | None" = None
+_SPOKEN: dict[tuple[str, str], list[str]] = {}   # (eSpeak voice, word) -> phones
 
 
 def cmudict_path() -> Path:
@@ -125,28 +129,42 @@ def cmudict() -> _SortedDictionary:
 class Pronunciation:
     word: str
     phones: list[str]
-    source: str  # "inline", "user", "cmudict", "derived", "rules"
+    source: str  # "inline", "ipa", "user", "cmudict", "derived", "rules", "espeak"
+    #: The phones the English acoustic model is asked to find, one for each of ``phones``, when they
+    #: differ (a word read from IPA: :func:`.languages.stand_ins`).
+    aligned: list[str] | None = None
+
+    def __post_init__(self):
+        if self.source in ("ipa", "espeak") and self.aligned is None:
+            subs = stand_ins()
+            aligned = [subs.get(p, p) for p in self.phones]
+            self.aligned = aligned if aligned != self.phones else None
 
 
 @dataclass
 class Lexicon:
-    """Looks words up: user entries shadow the CMU dictionary."""
+    """Looks words up: user entries shadow the CMU dictionary (English) or
+    eSpeak NG (any other ``language``)."""
 
     user: dict[str, list[list[str]]] = field(default_factory=dict)
+    language: Language = field(default_factory=resolve)
 
     @classmethod
-    def with_user_file(cls, path: str | os.PathLike | None) -> "Lexicon":
+    def with_user_file(cls, path: str | os.PathLike | None, language: str | Language | None = None) -> "Lexicon":
+        lang = resolve(language)
         if not path:
-            return cls()
+            return cls(language=lang)
         if not Path(path).is_file():
             raise TranscriptError(f"user dictionary not found: {path}")
-        return cls(load_dictionary(path))
+        return cls(load_dictionary(path), lang)
 
     def known(self, word: str) -> list[str] | None:
         hit = self.user.get(word) or cmudict().get(word)
         return list(hit[0]) if hit else None
 
     def pronounce(self, word: Word) -> Pronunciation:
+        if word.ipa is not None:
+            return Pronunciation(word.text, list(word.phones), "ipa")
         if word.phones is not None:
             phones = [strip_stress(p) for p in word.phones]
             bad = [p for p in phones if p not in PHONEMES]
@@ -157,6 +175,8 @@ class Lexicon:
         text = word.text
         if text in self.user:
             return Pronunciation(text, list(self.user[text][0]), "user")
+        if not self.language.is_english:
+            return Pronunciation(text, self._espeak(word), "espeak")
         hit = self.known(text)
         if hit:
             return Pronunciation(text, hit, "cmudict")
@@ -167,6 +187,20 @@ class Lexicon:
         if not spelled:
             raise TranscriptError(f"cannot pronounce {word.source!r}")
         return Pronunciation(text, spelled, "rules")
+
+    def _espeak(self, word: Word) -> list[str]:
+        from . import espeak
+
+        lang = self.language
+        key = (lang.espeak, word.source)
+        if key not in _SPOKEN:
+            written = word.source
+            if lang.code == "ja":
+                from . import japanese
+
+                written = japanese.reading(written)
+            _SPOKEN[key] = espeak.pronounce(written, lang.espeak, lang.phone_fixes)
+        return list(_SPOKEN[key])
 
     # -- morphology -------------------------------------------------------
     def _derive(self, word: str) -> list[str] | None:

@@ -13,7 +13,15 @@ the words that are actually heard:
   the word before it, which the aligner uses to split long audio;
 * a pronunciation can be forced inline by writing ARPAbet in braces straight
   after a word, ``quokka{K W AA1 K AH0}``; a brace group on its own,
-  ``{HH M}``, is a sound with no word (a hum, a breath).
+  ``{HH M}``, is a sound with no word (a hum, a breath);
+* a word written between slashes is its pronunciation in IPA, ``/pɛs/``
+  (read by :mod:`.ipa`; any language's IPA).
+
+All that is for English, the default.  A transcript in another language
+(:mod:`.languages`) keeps its words as written, numbers and symbols
+included, for eSpeak NG to read in that language (:mod:`.espeak`; Japanese is cut into words and its kanji
+read by :mod:`.japanese`); stage directions, pause punctuation (``。、，``
+too), braces and slashes work as above.
 """
 
 from __future__ import annotations
@@ -22,7 +30,8 @@ import re
 import unicodedata
 from dataclasses import dataclass
 
-from . import numbers
+from . import ipa, numbers
+from .languages import Language, resolve
 from ..errors import TranscriptError
 
 #: Pause strength of each punctuation mark, from 0 (none) to 1 (sentence end).
@@ -52,9 +61,11 @@ _QUOTES = str.maketrans({"\u2018": "'", "\u2019": "'", "\u02bc": "'", "\u201c": 
 
 _STAGE = re.compile(r"\[[^\]]*\]|\((?![^)]*\{)[^)]*\)|\*[^*\n]+\*|<[^>\n]*>")
 _ROMAN = re.compile(r"^(?=[MDCLXVI])M{0,3}(CM|CD|D?C{0,3})(XC|XL|L?X{0,3})(IX|IV|V?I{0,3})$")
+_IPA = r"(?<![\w/])/[^/\s]+/(?![\w/])"
 _TOKEN = re.compile(
     r"""
-    (?P<forced>[A-Za-z'][\w'.-]*\{[^}]*\}|\{[^}]*\})          # word{PH ONES} or {PH ONES}
+    (?P<ipa>(?<![\w/])/[^/\s]+/(?![\w/]))                    # /IPA/
+  | (?P<forced>[A-Za-z'][\w'.-]*\{[^}]*\}|\{[^}]*\})          # word{PH ONES} or {PH ONES}
   | (?P<money>[$£€¥]\s?\d[\d,]*(?:\.\d+)?(?:\s?(?:k|m|bn|million|billion|thousand))?)
   | (?P<time>\d{1,2}:\d{2}(?:\s?[ap]\.?m\.?)?)
   | (?P<ordinal>\d+(?:st|nd|rd|th)\b)
@@ -75,13 +86,38 @@ class Word:
     ``text`` is what the pronunciation is looked up by (lower case, spelled
     out); ``source`` is the piece of the script it came from; ``phones`` is a
     forced pronunciation (ARPAbet, may carry stress digits) or ``None``;
-    ``pause_after`` is the strength, 0 to 1, of the punctuation after it.
+    ``pause_after`` is the strength, 0 to 1, of the punctuation after it;
+    ``ipa`` is the IPA the word was written in (``/pɛs/``), whose phones are
+    ``phones``.
     """
 
     text: str
     source: str
     phones: list[str] | None = None
     pause_after: float = 0.0
+    ipa: str | None = None
+
+
+def plain_ipa(text: str) -> str:
+    """IPA as :mod:`.ipa` reads it: ``'`` typed for the ejective mark ``ʼ``
+    and ``:`` for the length mark ``ː``; superscript modifier letters it has
+    no use for (``ˢ`` of a released stop, ``ˀ`` of glottalisation) dropped,
+    as they change nothing the mouth shows."""
+    text = text.replace("'", "ʼ").replace(":", "ː")
+    return "".join(ch for ch in text
+                   if ch in ipa.MODIFIERS or unicodedata.category(ch) not in ("Lm", "Sk"))
+
+
+def ipa_word(tok: str) -> Word:
+    """A word written in IPA between slashes; a symbol that is not IPA is a
+    :class:`TranscriptError` naming it."""
+    body = plain_ipa(tok[1:-1])
+    try:
+        phones = ipa.to_arpabet(body)
+    except ipa.UnknownSymbol as exc:
+        raise TranscriptError(f"{tok!r} is not IPA: {exc.symbol!r} (U+{ord(exc.symbol):04X}) is not an IPA "
+                              "symbol; write a word's pronunciation between slashes in IPA, e.g. /pɛs/") from None
+    return Word(tok, tok, phones, ipa=body)
 
 
 def _money(token: str) -> list[str]:
@@ -137,13 +173,17 @@ def _strip_stage_directions(text: str) -> str:
     return _STAGE.sub(" ", text)
 
 
-def normalize(text: str) -> list[Word]:
-    """Turn a transcript into the list of words that are spoken.
+def normalize(text: str, language: str | Language | None = None) -> list[Word]:
+    """Turn a transcript into the list of words that are spoken, in
+    ``language`` (a code or :class:`.languages.Language`; default English).
 
     Raises :class:`TranscriptError` if nothing speakable is left.
     """
     if text is None or not text.strip():
         raise TranscriptError("the transcript is empty")
+    lang = resolve(language)
+    if not lang.is_english:
+        return _normalize_other(text, lang)
     text = text.translate(_QUOTES)
     lines = text.splitlines()
     # A line holding only a roman numeral is a heading (a sonnet's number).
@@ -158,6 +198,9 @@ def normalize(text: str) -> list[Word]:
         if kind == "pause":
             if words:
                 words[-1].pause_after = max(words[-1].pause_after, PAUSE_MARKS[tok])
+            continue
+        if kind == "ipa":
+            words.append(ipa_word(tok))
             continue
         if kind == "forced":
             word, _, phones = tok.partition("{")
@@ -206,10 +249,12 @@ def _skip_reason(piece: str) -> str:
     return "characters the aligner cannot pronounce"
 
 
-def skipped_words(text: str) -> list[tuple[str, str]]:
+def skipped_words(text: str, language: str | Language | None = None) -> list[tuple[str, str]]:
     """The pieces of a transcript :func:`normalize` leaves out because they
     are not words it can pronounce (other scripts, emoji, stray symbols),
     each with the reason; punctuation and stage directions are not listed."""
+    if not resolve(language).is_english:
+        return _scan(text)[1]
     text = _strip_stage_directions(text.translate(_QUOTES))
     gaps, last = [], 0
     for m in _TOKEN.finditer(text):
@@ -249,6 +294,104 @@ def _word(tok: str, following: str | None, next_match) -> tuple[list[str], bool]
     parts = [p.strip("'") if p.count("'") and (p.startswith("'") and not p.startswith("'t")) else p
              for p in parts]
     return [p for p in parts if p], has_dot
+
+
+# ---------------------------------------------------------------------------
+# Other languages: words as written, for eSpeak NG
+
+#: Pause strength of the punctuation of other scripts, besides :data:`PAUSE_MARKS`.
+OTHER_PAUSE_MARKS = {**PAUSE_MARKS, "。": 1.0, "．": 1.0, "！": 1.0, "？": 1.0, "、": 0.4, "，": 0.4, "；": 0.6,
+                     "：": 0.6, "·": 0.4, "؟": 1.0, "،": 0.4, "؛": 0.6, "।": 1.0, "॥": 1.0, "¿": 0.0, "¡": 0.0}
+_OTHER_TOKEN = re.compile(
+    r"""
+    (?P<ipa>""" + _IPA + r""")
+  | (?P<forced>\{[^}]*\})
+  | (?P<number>[$£€¥]?\d+(?:[.,:]\d+)*(?:\s?[%€$£¥])?)
+  | (?P<pause>\.\.\.|[""" + re.escape("".join(k for k in OTHER_PAUSE_MARKS if len(k) == 1)) + r"""])
+    """,
+    re.VERBOSE,
+)
+
+
+def _letter(ch: str) -> bool:
+    return unicodedata.category(ch)[0] == "L"
+
+
+def _in_word(ch: str) -> bool:
+    return unicodedata.category(ch)[0] in "LMN"
+
+
+def _scan(text: str, split=None) -> tuple[list[Word], list[tuple[str, str]]]:
+    """Words of a transcript in another language, and the pieces left out.
+    A word is a run of letters (with their combining marks, digits, and
+    ``'`` or ``-`` between letters), as written: a run of Han characters or
+    kana between punctuation is one word, unless ``split`` (a run -> its
+    words) cuts it."""
+    text = _strip_stage_directions(text.translate(_QUOTES))
+    words: list[Word] = []
+    skipped: list[tuple[str, str]] = []
+    i, n = 0, len(text)
+    while i < n:
+        m = _OTHER_TOKEN.match(text, i)
+        ch = text[i]
+        if m:
+            tok = m.group()
+            if m.lastgroup == "pause":
+                if words:
+                    words[-1].pause_after = max(words[-1].pause_after, OTHER_PAUSE_MARKS.get(tok, 0.8))
+            elif m.lastgroup == "ipa":
+                words.append(ipa_word(tok))
+            elif m.lastgroup == "forced":
+                phones = tok[1:-1].split()
+                if not phones:
+                    raise TranscriptError(f"empty pronunciation in {tok!r}")
+                words.append(Word(tok, tok, [p.upper() for p in phones]))
+            else:
+                words.append(Word(tok.strip(), tok))
+            i = m.end()
+            continue
+        if _letter(ch):
+            j = i + 1
+            while j < n and (_in_word(text[j]) or (text[j] in "'-" and j + 1 < n and _letter(text[j + 1]))):
+                j += 1
+            tok = text[i:j]
+            if j < n and text[j] == "{":      # word{PH ONES}
+                end = text.find("}", j)
+                if end > 0:
+                    phones = text[j + 1:end].split()
+                    if not phones:
+                        raise TranscriptError(f"empty pronunciation in {text[i:end + 1]!r}")
+                    words.append(Word(tok.lower(), text[i:end + 1], [p.upper() for p in phones]))
+                    i = end + 1
+                    continue
+            words.extend(Word(piece.lower(), piece) for piece in (split(tok) if split else [tok]))
+            i = j
+            continue
+        if not ch.isspace() and unicodedata.category(ch)[0] in "NS" and ch not in "{}/":
+            j = i
+            while j < n and not text[j].isspace():
+                j += 1
+            piece = text[i:j].strip("\"'()[]{}<>*_~`^|\\/")
+            if piece:
+                skipped.append((piece, "an emoji or symbol, not a word"))
+            i = j
+            continue
+        i += 1
+    return words, skipped
+
+
+def _normalize_other(text: str, lang: Language) -> list[Word]:
+    split = None
+    if lang.code == "ja":
+        from . import japanese
+
+        split = japanese.words
+    words, skipped = _scan(text, split)
+    if not words:
+        if skipped:
+            raise TranscriptError("the transcript has no words the aligner can use: " + describe_skipped(skipped))
+        raise TranscriptError("the transcript has no spoken words (only punctuation or stage directions)")
+    return words
 
 
 def _roman_value(s: str) -> int:
