@@ -21,7 +21,8 @@ and /h/ included), ``nasal``, ``liquid`` (/l r/) and ``glide`` (/w y/).  The
 offsets are the ones that put the most boundaries within 20 ms of the hand
 labels (then within 40 ms) on four TIMIT speakers (the development half of
 ``bench/timit.py``), in steps of 5 ms, for the pairs seen at least five times
-there; every phone keeps at least ``boundary.min_phone`` s.  The clip's first
+there.  Every phone keeps at least ``boundary.min_phone`` s (30 ms: the
+decoder's own shortest phone, three 10 ms states).  The clip's first
 phone moves no later than the voice onset: the first moment the level (25 ms
 windows every 5 ms) is ``boundary.onset_rise`` dB above the clip's quiet
 level (its 10th percentile), or ``boundary.onset_below_peak`` dB below its
@@ -87,7 +88,7 @@ def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dic
     cfg = _settings() if cfg is None else cfg
     table = {str(k): float(v) for k, v in cfg.get("shift", {}).items()}
     default = float(cfg.get("default", 0.0))
-    keep = float(cfg.get("min_phone", 0.015))
+    keep = float(cfg.get("min_phone", 0.03))
     if not table and not default:
         return
     before = None      # (word, index) of the phone seen last, None when it was estimated
