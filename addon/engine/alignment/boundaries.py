@@ -5,7 +5,7 @@ of the new phone; a frame's 25 ms window is centred some 8-13 ms after the
 frame's time, so its boundaries lie early on average (7.5 ms, measured
 against hand-labelled read English, TIMIT), and the bias depends on the
 sounds on either side: a vowel before a fricative, nasal or stop ends
-10-15 ms early, a glide after a consonant starts 25-45 ms early, and the
+10-15 ms early, a glide after a consonant starts 15-45 ms early, and the
 first phone of a clip that opens with silence starts 25-55 ms early (the
 silence model gives up before the voice starts).  Boundary correction by
 phone context is the standard remedy of HMM aligners.  (Aligners of the same
