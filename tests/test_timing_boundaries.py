@@ -76,6 +76,8 @@ def test_voice_onset():
     assert voice_onset(_clip(0.2), 0.1, 0.4, 20.0) == pytest.approx(0.2, abs=0.01)
     assert voice_onset(_clip(0.0), 0.0, 0.4, 20.0) == 0.0
     assert voice_onset(_clip(0.5), 0.1, 0.3, 20.0) == 0.3
+    # Far into a long clip (only the audio around the span is measured).
+    assert voice_onset(_clip(30.2, length=40.0), 30.1, 30.4, 20.0) == pytest.approx(30.2, abs=0.01)
 
 
 def test_the_first_phone_moves_toward_the_voice_not_past_it():

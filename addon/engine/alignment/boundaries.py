@@ -22,12 +22,13 @@ offsets are the ones that put the most boundaries within 20 ms of the hand
 labels (then within 40 ms) on four TIMIT speakers (the development half of
 ``bench/timit.py``), in steps of 5 ms, for the pairs seen at least five times
 there.  Every phone keeps at least ``boundary.min_phone`` s (30 ms: the
-decoder's own shortest phone, three 10 ms states).  The clip's first
-phone moves no later than the voice onset: the first moment the level (25 ms
-windows every 5 ms) is ``boundary.onset_rise`` dB above the clip's quiet
-level (its 10th percentile), or ``boundary.onset_below_peak`` dB below its
-loud level (99th percentile) if that is lower (a clip with no pause), so a
-clip cut tight on its first word keeps its start.
+decoder's own shortest phone, three 10 ms states).  The clip's first phone
+moves no later than the voice onset: the first moment the level (25 ms
+windows every 5 ms) is ``boundary.onset_rise`` dB above the quiet level
+(10th percentile) of the audio within 15 s of it, or
+``boundary.onset_below_peak`` dB below its loud level (99th percentile) if
+that is lower (audio with no pause), so a clip cut tight on its first word
+keeps its start.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from .speech import frame_levels
 _CLASS = {"affricate": "fricative"}
 _HOP = 0.005
 _WIN = 0.025
+_AROUND = 15.0
 
 
 def boundary_class(phone: str | None, first: bool = False) -> str | None:
@@ -60,12 +62,16 @@ def boundary_class(phone: str | None, first: bool = False) -> str | None:
 
 def voice_onset(audio: Audio, start: float, end: float, rise: float, below_peak: float = 10.0) -> float:
     """The first time in [``start``, ``end``] at which the level is ``rise``
-    dB above the clip's quiet level (its 10th percentile), or within
-    ``below_peak`` dB of its loud level (its 99th percentile) in a clip with
-    no quiet part; ``end`` if none."""
-    levels = frame_levels(audio, _HOP)
+    dB above the quiet level (10th percentile) of the audio within 15 s of
+    that span, or within ``below_peak`` dB of its loud level (99th
+    percentile) where it has no quiet part; ``end`` if none."""
+    # The levels of the clip's stretch around the phone (at most _AROUND s either side) are enough.
+    step = int(round(_HOP * audio.rate))
+    first = max(0, int((start - _AROUND) * audio.rate) // step * step)
+    last = min(len(audio.samples), int((end + _AROUND) * audio.rate))
+    levels = frame_levels(Audio(audio.samples[first:last], audio.rate), _HOP)
     threshold = min(float(np.percentile(levels, 10)) + rise, float(np.percentile(levels, 99)) - below_peak)
-    centres = np.arange(len(levels)) * _HOP + _WIN / 2
+    centres = first / audio.rate + np.arange(len(levels)) * _HOP + _WIN / 2
     loud = np.flatnonzero((centres >= start - _HOP / 2) & (centres <= end) & (levels >= threshold))
     if not len(loud):
         return end
