@@ -77,7 +77,7 @@ def voice_onset(audio: Audio, start: float, end: float, rise: float, below_peak:
         return end
     k = int(loud[0])
     # A loud window that was open at ``start`` already: the voice is there.
-    return float(start if k * _HOP <= start else max(start, centres[k]))
+    return float(start if centres[k] - _WIN / 2 <= start else max(start, centres[k]))
 
 
 def _settings() -> dict:
