@@ -38,7 +38,9 @@ the speech and pauses are), :mod:`.decoding` (pocketsphinx passes),
 :mod:`.pieces`, :mod:`.stream` and :mod:`.chunks` (how a clip is divided),
 :mod:`.estimate` (placing by estimate), :mod:`.fillers` (a hesitation
 may be a filler sound), :mod:`.bursts` (a stop after silence starts at its
-release burst), :mod:`.core` (:func:`align`), :mod:`.transcript`
+release burst), :mod:`.reduced` (a reduced /ð/ keeps its usual length),
+:mod:`.boundaries` (each boundary corrected by the classes of the phones it
+joins), :mod:`.core` (:func:`align`), :mod:`.transcript`
 (:func:`align_audio`: a written transcript rather than phones),
 :mod:`.verify` (the transcript checked against the take: words not said,
 speech not scripted) and :mod:`.recognize` (speech with no transcript,

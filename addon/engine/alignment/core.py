@@ -6,6 +6,7 @@ from typing import Callable, Sequence
 
 from ..audio import Audio
 from ..errors import AlignmentError, AudioError, TranscriptError
+from .boundaries import shift_boundaries
 from .bursts import refine_stops
 from .fillers import mark, restore
 from .chunks import _align_chunked
@@ -89,6 +90,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     restore(result, prons)
     refine_stops(audio, result, est)
     shorten_reduced(result, est)
+    shift_boundaries(audio, result, est)
     words: list[AlignedWord] = []
     phones: list[AlignedPhone] = []
     for wi in range(n):
