@@ -6,6 +6,7 @@ under ``--out DIR`` stay under DIR; a missing audio file is named as such."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -16,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from addon.engine import batch
+from addon.engine.batch import records
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures"
@@ -190,8 +192,8 @@ def test_unchanged_inputs_are_not_read_again(lines_dir, monkeypatch):
         os.utime(p, ns=(old, old))
     assert _status(_run(m)) == ["ok"]
     hashed = []
-    real = batch._file_sha
-    monkeypatch.setattr(batch, "_file_sha", lambda path: hashed.append(Path(path).name) or real(path))
+    real = records._file_sha
+    monkeypatch.setattr(records, "_file_sha", lambda path: hashed.append(Path(path).name) or real(path))
     assert _status(_run(m)) == ["skipped"]
     assert hashed == []
     os.utime(lines_dir / "bob_map.wav")            # touched: read again, found the same
@@ -206,7 +208,8 @@ def test_another_engine_redoes_every_line(lines_dir, monkeypatch, part):
     assert _status(_run(m)) == ["ok"]
     engine = _doc(lines_dir / "bob_map.json")["produced_by"]["engine"]
     assert engine["version"] == batch.engine_version() != "unknown"
-    monkeypatch.setattr(batch, part, lambda: "other")   # a new release, or the same one with new data files
+    assert engine["data"] == records._engine_data() != hashlib.sha256().hexdigest()   # the data files, read
+    monkeypatch.setattr(records, part, lambda: "other")   # a new release, or the same one with new data files
     again = _run(m)
     assert _status(again) == ["ok"] and again.outcomes[0].reason == "engine changed"
     assert "other" in _doc(lines_dir / "bob_map.json")["produced_by"]["engine"].values()

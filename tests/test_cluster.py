@@ -198,8 +198,8 @@ def test_separate_scheduler_and_workers_run_every_line_as_analyze_does(cluster, 
     report = json.loads((tmp_path / "report.json").read_text())
     assert [ln["status"] for ln in report["lines"]] == ["ok"] * 9
     # both worker processes loaded the shipped engine, each in its own scratch folder
-    unpacked = sorted(p.parent.parent.parent.name for p in (cluster.folder / "workers").glob(
-        "dask-scratch-space/worker-*/emotive-lipsync/emotive_lipsync_engine_*/batch.py"))
+    unpacked = sorted(p.parent.parent.parent.parent.name for p in (cluster.folder / "workers").glob(
+        "dask-scratch-space/worker-*/emotive-lipsync/emotive_lipsync_engine_*/batch/cluster.py"))
     assert len(unpacked) == 2, unpacked
     # The record the workers made is what a rerun compares: nothing to redo, here or on the cluster.
     r, _ = _batch_cli(lines / "m.jsonl", "--scheduler", address, "--json", "--csv")

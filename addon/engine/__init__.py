@@ -4,21 +4,16 @@
     result = analyze("line.wav", "Hello there!", emotion="happy", fps=24)
     result.curves      # (frames, visemes), weights in [0, 1]
 
-The engine's layers, from the bottom (a module imports only from layers
-below its own; ``tests/test_structure.py`` checks it):
-
-1. :mod:`.errors`, :mod:`.datafile`, :mod:`.framerate`, :mod:`.smoothing`;
-2. :mod:`.language` (script -> words -> phones, IPA), :mod:`.audio` and
-   :mod:`.wavstream` (decoding), :mod:`.pauses` (timing settings, rest);
-3. the data a studio extends: :mod:`.visemes`, :mod:`.conventions`,
-   :mod:`.presets`; the voice: :mod:`.prosody`, :mod:`.weights`,
-   :mod:`.arousal`; :mod:`.alignment` (forced alignment) and
-   :mod:`.importers` (TextGrid, Rhubarb, Papagayo alignments);
-4. the animation: :mod:`.coarticulation`, :mod:`.emotion_track`, :mod:`.expression`, :mod:`.render`,
-   :mod:`.mapping`, :mod:`.key_reduction`;
-5. :mod:`.output` (the result and its files), :mod:`.pipeline` (the whole
-   job), :mod:`.learning` (presets learned from captured motion);
-6. the programs: :mod:`.batch`, :mod:`.cli`, :mod:`.arousal_cli`.
+The engine is built in layers, each importing only from the layers below
+it: the basics (errors, data files, frame rates), then language and audio
+decoding, then the data a studio extends and the voice's measures
+(visemes, conventions, presets, prosody, arousal) with forced alignment,
+then the animation (coarticulation, emotion over the line, the expression
+layer, rendering), then the whole job (:mod:`.pipeline`, its
+:mod:`.output`) and :mod:`.learning`, and on top the programs
+(:mod:`.batch`, :mod:`.cli`).  Which module sits in which layer is written
+down once, in ``tests/test_structure.py``, which fails on an import cycle
+or an upward import.
 """
 
 from .errors import LipSyncError

@@ -41,7 +41,10 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Iterator
 
-from .errors import LipSyncError
+from ..errors import LipSyncError
+from .lines import Defaults, Line, Outcome
+from .records import engine_version
+from .work import one_line_error, warm, work
 
 #: Distributions whose versions must match this machine's: the engine's (the
 #: results must equal ``analyze``'s here) and Dask's (the task graph is pickled).
@@ -98,7 +101,7 @@ def _package_versions(versions: dict) -> dict:
 def bundle() -> tuple[str, bytes]:
     """(package name, zip) of the engine's files: its modules and data.  The
     name carries the files' hash, so a worker never mixes two versions."""
-    root = Path(__file__).resolve().parent
+    root = Path(__file__).resolve().parent.parent     # the engine package
     files = sorted(p for p in root.rglob("*")
                    if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc")
     digest = hashlib.sha256()
@@ -109,8 +112,6 @@ def bundle() -> tuple[str, bytes]:
         digest.update(rel.encode() + b"\0" + len(data).to_bytes(8, "little") + data)
         contents.append((rel, data))
     name = "emotive_lipsync_engine_" + digest.hexdigest()[:16]
-    from .batch import engine_version
-
     contents.append(("VERSION", engine_version().encode("utf-8")))   # the release's, for the outputs' records
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
@@ -159,7 +160,7 @@ def _task_functions():
             if root not in sys.path:
                 sys.path.append(root)
             importlib.invalidate_caches()
-        return importlib.import_module(name + ".cluster")
+        return importlib.import_module(name + ".batch.cluster")
 
     def problem(exc):
         msg = " ".join(str(exc).split())
@@ -217,25 +218,19 @@ def _check(expected: dict, dictionary: str | None) -> str | None:
     try:
         for module in MODULES:
             importlib.import_module(module)
-        from .batch import warm
-
         warm(dictionary)
     except ImportError as exc:   # what the worker's environment lacks
         return f"cannot load the lip-sync engine: {exc}"
     except Exception as exc:
-        from .batch import one_line_error
-
         return f"cannot load the lip-sync engine: {one_line_error(exc)}"
     return None
 
 
 def worker_line(line: dict, defaults: dict, expected: dict) -> dict:
-    """Lip-sync one line (its :class:`~.batch.Line` fields) here; returns
+    """Lip-sync one line (its :class:`~.lines.Line` fields) here; returns
     plain data: status, error, seconds and each output's bytes, or
     ``problem`` when this worker cannot run lines at all."""
     import tempfile
-
-    from .batch import Defaults, Line, work
 
     why = worker_check(expected, defaults.get("dictionary"))
     if why:
@@ -260,7 +255,7 @@ def worker_line(line: dict, defaults: dict, expected: dict) -> dict:
 
 class Rendered:
     """A line's outputs as a worker made them, standing in for the Result
-    when this machine writes them (:func:`.batch.write_outputs`)."""
+    when this machine writes them (:func:`.work.write_outputs`)."""
 
     def __init__(self, outputs: dict[str, bytes]):
         self.outputs = outputs
@@ -327,14 +322,12 @@ def _within(seconds: float, what: str, fn, *args, **kwargs):
 
 
 def _one_line(exc: BaseException) -> str:
-    from .batch import one_line_error
-
     return one_line_error(exc)
 
 
 def run_dask(lines, defaults, scheduler, timeout: float = DEFAULT_TIMEOUT) -> Iterator:
     """The lines on a Dask distributed cluster (``scheduler``: its address,
-    or a ``distributed.Client``); yields one :class:`~.batch.Outcome` per
+    or a ``distributed.Client``); yields one :class:`~.lines.Outcome` per
     line as lines finish, each ``ok`` one carrying a :class:`Rendered`.
 
     The input files must be at the same paths on the workers (a shared file
@@ -382,8 +375,6 @@ def run_dask(lines, defaults, scheduler, timeout: float = DEFAULT_TIMEOUT) -> It
 
 def _run(client, address, lines, defaults, deadline, timeout) -> Iterator:
     from distributed import as_completed
-
-    from .batch import Outcome
 
     def left() -> float:
         return max(0.0, deadline - time.monotonic())
