@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Run every test: the engine (plain Python) once, then the Blender extension,
-# built and installed from its zip, headless on each Blender it supports:
+# Run every check: the linter (ruff), the engine's tests (plain Python) once,
+# then the Blender extension's, built and installed from its zip, headless on
+# each Blender it supports:
 # 4.2 LTS, 4.5 LTS, 5.0 (Python 3.11), 5.2 LTS and 5.3 (Python 3.13), each the bpy
 # module from PyPI in its own environment.  The environments are built first
 # if needed (./setup.sh --test-envs).  Each Blender's tests run even when an
@@ -55,6 +56,15 @@ blender() {
 print(m.version("bpy"), "(Python %d.%d.%d)" % sys.version_info[:3])')
   run "Blender $version: extension tests ($1)" "$1/bin/python" tests/blender
 }
+
+echo
+echo "=== Lint (ruff, rules in pyproject.toml) ==="
+if .venv/bin/ruff check addon tests bench tools sample_rigs; then
+  summary+=("Lint (ruff): clean")
+else
+  summary+=("Lint (ruff): FAILED, see above")
+  status=1
+fi
 
 run "Engine (Python $(.venv/bin/python -c 'import platform; print(platform.python_version())'))" \
   .venv/bin/python tests --ignore=tests/blender

@@ -78,7 +78,8 @@ def joined_row(repeat: int = 1) -> None:
 
 
 def main() -> None:
-    print(f"{'clip':18s} {'phones':>6s} {'matched':>7s} {'<=20ms':>7s} {'<=40ms':>7s} {'median':>8s} {'est.':>5s} {'time':>6s}")
+    print(f"{'clip':18s} {'phones':>6s} {'matched':>7s} {'<=20ms':>7s} {'<=40ms':>7s} {'median':>8s} "
+          f"{'est.':>5s} {'time':>6s}")
     groups: dict[str, list[float]] = {"mfa": [], "praatio": [], "all": []}
     for name, audio, text, grid, phoneset in reference_phones():
         ref = read_textgrid(grid, phoneset)

@@ -30,8 +30,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from addon.engine import batch  # noqa: E402
-from addon.engine.pipeline import analyze  # noqa: E402
+from addon.engine import batch
+from addon.engine.pipeline import analyze
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures"

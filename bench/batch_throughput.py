@@ -62,7 +62,8 @@ def word_times() -> list[tuple[str, audio_mod.Audio, list[tuple[str, float, floa
         out.append((name, audio_mod.load(DATA / "mfa" / f"{name}.wav"), [(w.text, w.start, w.end) for w in al.words]))
     for name in ("mary", "damon_set_test"):
         al = read_alignment(DATA / "praatio" / f"{name}.TextGrid")
-        out.append((name, audio_mod.load(DATA / "praatio" / f"{name}.wav"), [(w.text, w.start, w.end) for w in al.words]))
+        words = [(w.text, w.start, w.end) for w in al.words]
+        out.append((name, audio_mod.load(DATA / "praatio" / f"{name}.wav"), words))
     aligned = [(p.stem, p, p.with_suffix(".txt").read_text(encoding="utf-8"))
                for p in sorted((DATA / "librivox").glob("*.mp3"))]
     aligned.append(("61-70968-0000", DATA / "mfa" / "61-70968-0000.flac",

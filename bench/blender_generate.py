@@ -26,7 +26,7 @@ import numpy as np
 from common import DATA, ROOT, write_wav
 
 sys.path.insert(0, str(ROOT / "sample_rigs"))
-import build_rigs  # noqa: E402
+import build_rigs
 
 OCULUS = {"viseme_sil": {}, "viseme_PP": {"close": 1.0}, "viseme_FF": {"tuck_lower": 1.0},
           "viseme_TH": {"open": 0.22}, "viseme_DD": {"open": 0.18, "wide": 0.2},

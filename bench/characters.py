@@ -23,13 +23,12 @@ from __future__ import annotations
 import sys
 
 import bpy
-import numpy as np
 
 from common import ROOT
 
 sys.path.insert(0, str(ROOT / "tests" / "blender"))
 sys.path.insert(0, str(ROOT / "sample_rigs"))
-from heads import FPS, HEADS, build_head, measure  # noqa: E402
+from heads import FPS, HEADS, build_head, measure
 
 TEXT = "Maybe Bobby makes pumpkin pie, baby."
 LINES = ((ROOT / "tests" / "fixtures" / "fast_bilabials.wav", 1), (ROOT / "tests" / "fixtures" /

@@ -23,7 +23,7 @@ from addon.engine.language.phonemes import MANNER
 from addon.engine.pipeline import analyze
 
 sys.path.insert(0, str(ROOT / "tests"))
-from voice_synth import voice  # noqa: E402
+from voice_synth import voice
 
 AMOUNTS = (0.0, 0.5, 1.0)
 

@@ -150,7 +150,7 @@ def main() -> None:
             s["estimated"] += any(w.estimated for w in al.words)
             hyp = [(p.phone, p.start) for p in al.phones]
             s["errors"] += match_starts([(p, a) for p, a, _, _ in phones], hyp)
-            for p, a, b, label in phones:
+            for _p, a, b, label in phones:
                 if closes_lips(label):
                     near = (result.times >= a - 0.03) & (result.times <= b + 0.03)
                     s["closures"].append(bool(np.any(result.closure[near] >= 0.5)))

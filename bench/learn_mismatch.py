@@ -25,7 +25,7 @@ from addon.engine import learning
 
 import sys
 sys.path.insert(0, str(ROOT / "tests"))
-import mismatch  # noqa: E402
+import mismatch
 
 
 def per_track_change(r: dict) -> str:

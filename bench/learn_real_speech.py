@@ -32,12 +32,12 @@ import numpy as np
 from common import ROOT, need_data
 
 sys.path.insert(0, str(ROOT / "tests"))
-import mismatch  # noqa: E402
-from addon.engine import audio as audio_mod  # noqa: E402
-from addon.engine import learning, pipeline, presets, visemes  # noqa: E402
-from addon.engine.learning import proxies  # noqa: E402
-from addon.engine.learning.evaluate import track_scores  # noqa: E402
-from addon.engine.learning.model import viseme_curves  # noqa: E402
+import mismatch
+from addon.engine import audio as audio_mod
+from addon.engine import learning, pipeline, presets, visemes
+from addon.engine.learning import proxies
+from addon.engine.learning.evaluate import track_scores
+from addon.engine.learning.model import viseme_curves
 
 RATE = 16000
 #: TIMIT labels that are not ARPAbet; stop closures join the stop after them.

@@ -65,7 +65,8 @@ def main():
         sub = audio_mod.Audio(sub.samples * gain, sub.rate)
         probe = learning.TrainingClip("p", sub, sal, np.array([0.0, sub.duration]), np.zeros((2, 52)), CHANNELS)
         prep = learning.prepare(probe, vs, truth, 60.0, CHANNELS)
-        y = learning.synthesise(prep, truth, truth_set, CHANNELS, 60.0, poses) + rng.normal(0, 0.01, (len(prep.times), 52))
+        y = learning.synthesise(prep, truth, truth_set, CHANNELS, 60.0, poses)
+        y = y + rng.normal(0, 0.01, (len(prep.times), 52))
         clips.append(learning.TrainingClip(f"piece{k}", sub, sal, prep.times, y, CHANNELS))
         k += 1
     secs = sum(c.audio.duration for c in clips)

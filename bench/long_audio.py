@@ -123,7 +123,7 @@ def measure(wav: str, txt: str, out: str) -> tuple[float, float, float, float, i
             time.sleep(0.2)
         seconds = time.perf_counter() - t0
         log.seek(0)
-        lines = [l for l in log.read().splitlines() if l.strip()]
+        lines = [ln for ln in log.read().splitlines() if ln.strip()]
     proc.returncode = os.waitstatus_to_exitcode(status)
     cpu = usage.ru_utime + usage.ru_stime  # includes the workers it waited for
     return seconds, cpu, usage.ru_maxrss / 1024.0, tree / 2**20, proc.returncode, lines[-1] if lines else ""

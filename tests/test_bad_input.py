@@ -3,7 +3,6 @@ command line: exit status 1 and one ``error:`` line naming the file, line or
 time; never a traceback) or in correct output with a warning."""
 
 import json
-import math
 import os
 import subprocess
 import sys
@@ -13,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon.engine.errors import ImportFormatError, LipSyncError
+from addon.engine.errors import LipSyncError
 from addon.engine.importers import read_alignment
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -61,7 +60,7 @@ def assert_error(rc, out, err, *names):
     """Exit status 1, one ``error:`` line naming each of ``names``, no traceback."""
     assert "Traceback" not in out + err, err
     assert rc == 1, (rc, out, err)
-    lines = [l for l in err.splitlines() if l.startswith("error:")]
+    lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1, err
     for n in names:
         assert str(n) in lines[0], (n, lines[0])
@@ -97,7 +96,7 @@ def papagayo(fps="24", frames="24", words=(("hello", 2, 10, ((2, "E"), (6, "O"))
              "hello", "0", "24", str(len(words))]
     for text, a, b, phs in words:
         lines.append(f"{text} {a} {b} {len(phs)}")
-        lines += [f"{f} {l}" for f, l in phs]
+        lines += [f"{f} {label}" for f, label in phs]
     return "\n".join(lines) + "\n"
 
 
@@ -201,7 +200,7 @@ def test_alignment_object_past_the_end_is_refused():
 
 # --- Transcripts -----------------------------------------------------------------
 
-from addon.engine.language.text import decode_text, read_text_file  # noqa: E402
+from addon.engine.language.text import decode_text, read_text_file
 
 LINE = "Café Bob bought a map"
 
@@ -250,7 +249,7 @@ def test_latin1_transcript_on_the_command_line(tmp_path):
     rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--transcript", path, "--json", out)
     assert rc == 0, se
     assert "Traceback" not in se
-    assert any(l.startswith("warning:") and str(path) in l and "not UTF-8" in l for l in se.splitlines()), se
+    assert any(ln.startswith("warning:") and str(path) in ln and "not UTF-8" in ln for ln in se.splitlines()), se
     doc = json.loads(out.read_text())
     assert any("not UTF-8" in n for n in doc["notes"])
     assert [w["word"] for w in doc["words"]][:4] == ["bob", "bought", "a", "map"]
@@ -328,7 +327,7 @@ def test_skipped_words_are_named_on_stderr_and_in_the_notes(tmp_path):
     out = tmp_path / "o.json"
     rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob 😀 bought 你好 a map", "--json", out)
     assert rc == 0, se
-    warn = [l for l in se.splitlines() if l.startswith("warning:")]
+    warn = [ln for ln in se.splitlines() if ln.startswith("warning:")]
     assert len(warn) == 1 and "'😀' (an emoji" in warn[0] and "'你好' (not in the Latin alphabet: CJK)" in warn[0]
     doc = json.loads(out.read_text())
     assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
@@ -454,7 +453,7 @@ def test_truncated_wav_is_read_with_a_warning(tmp_path):
     rc, so, se = run_cli("analyze", path, "--text", "Bob bought a map.", "--json", out)
     assert rc == 0, se
     assert "Traceback" not in se and "PraatWarning" not in se
-    assert any(l.startswith("warning:") and "cut short" in l and str(path) in l for l in se.splitlines()), se
+    assert any(ln.startswith("warning:") and "cut short" in ln and str(path) in ln for ln in se.splitlines()), se
     doc = json.loads(out.read_text())
     assert any("cut short" in n for n in doc["notes"])
     assert [w["word"] for w in doc["words"]] == ["bob", "bought", "a", "map"]
@@ -507,13 +506,13 @@ VISEME_SETS = {
     "name-number": (b'{"name": 5}', ["'name'"]),
     "visemes-list": (b'{"name": "v", "visemes": [], "phonemes": {}}', ["'visemes'"]),
     "no-visemes": (b'{"name": "v", "visemes": {}, "phonemes": {}}', ["'visemes'", "empty"]),
-    "range-short": (('{"name": "v", "visemes": {"A": {"range": [1, 0.5]}}, "phonemes": {"AA": "A"}}').encode(),
+    "range-short": ((b'{"name": "v", "visemes": {"A": {"range": [1, 0.5]}}, "phonemes": {"AA": "A"}}'),
                     ["'visemes.A.range'", "three numbers"]),
-    "range-nan": (('{"name": "v", "visemes": {"A": {"range": [NaN, 0.5, 1]}}, "phonemes": {"AA": "A"}}').encode(),
+    "range-nan": ((b'{"name": "v", "visemes": {"A": {"range": [NaN, 0.5, 1]}}, "phonemes": {"AA": "A"}}'),
                   ["'visemes.A.range'", "nan"]),
-    "unknown-viseme": (('{"name": "v", "visemes": {"A": %s}, "phonemes": {"AA": "B"}}' % RANGE).encode(),
+    "unknown-viseme": (('{"name": "v", "visemes": {"A": ' + RANGE + '}, "phonemes": {"AA": "B"}}').encode(),
                        ["'phonemes.AA'", "'B'"]),
-    "phones-missing": (('{"name": "v", "visemes": {"A": %s}, "phonemes": {"AA": "A"}}' % RANGE).encode(),
+    "phones-missing": (('{"name": "v", "visemes": {"A": ' + RANGE + '}, "phonemes": {"AA": "A"}}').encode(),
                        ["'phonemes'", "does not map", "AE"]),
     "binary": (b"\xff\xfe\x00", ["not UTF-8"]),
 }
@@ -554,7 +553,7 @@ def test_transcript_much_shorter_than_the_speech_warns(tmp_path):
     out = tmp_path / "o.json"
     rc, so, se = run_cli("analyze", FIXTURES / "bob_map.wav", "--text", "Bob", "--json", out)
     assert rc == 0, se
-    warn = [l for l in se.splitlines() if l.startswith("warning:")]
+    warn = [ln for ln in se.splitlines() if ln.startswith("warning:")]
     assert len(warn) == 1 and "of speech not in the transcript" in warn[0], se
     doc = json.loads(out.read_text())
     # The speech the transcript leaves out is recognised and animated, and listed.

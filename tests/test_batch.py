@@ -194,7 +194,7 @@ def test_dask_cluster_with_a_worker_killed_mid_run(lines_dir, tmp_path):
                 killed.append(busy[0])
                 try:
                     client.run(os._exit, 1, workers=[busy[0]], nanny=False, on_error="ignore")
-                except Exception:
+                except Exception:  # noqa: BLE001 - the worker went away mid-call, as intended
                     pass   # the worker went away mid-call, as intended
 
         seen = []

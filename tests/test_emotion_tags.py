@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from addon.engine import cli, emotion_track, pipeline, presets
-from addon.engine.alignment import AlignedPhone, AlignedWord, Alignment
+from addon.engine.alignment import AlignedWord, Alignment
 from addon.engine.errors import LipSyncError, TranscriptError
 from addon.engine.language.text import normalize
 from voice_synth import voice

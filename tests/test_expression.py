@@ -15,7 +15,7 @@ from addon.engine.language import phone_class
 from voice_synth import voice
 
 sys.path.insert(0, str(presets.DATA.parents[3] / "sample_rigs"))
-from human import ARKIT_52  # noqa: E402  ARKit's 52 blendshape names
+from human import ARKIT_52
 
 EMFACS = {"happy": {"AU6", "AU12"}, "sad": {"AU1", "AU4", "AU15"}, "angry": {"AU4", "AU5", "AU7", "AU23"},
           "surprised": {"AU1", "AU2", "AU5", "AU26"}, "afraid": {"AU1", "AU2", "AU4", "AU5", "AU20"},
@@ -49,7 +49,7 @@ def test_each_preset_drives_its_emfacs_units_and_neutral_none(line, results):
         assert units <= set(r.expression), name
         for u in units:
             assert r.expression[u][speaking].mean() >= 0.2, (name, u)
-        for u, v in r.expression.items():
+        for v in r.expression.values():
             assert v.shape == r.times.shape and v.min() >= 0.0 and v.max() <= 1.0
         # The articulation is computed as before: the expression is a layer beside it.
         assert r.curves.shape == results["neutral"].curves.shape
@@ -151,7 +151,7 @@ def _arkit_keys(r, units_scale=1.0):
 def test_speech_and_expression_on_one_key_are_bounded_and_defined():
     speech = np.array([[0.0, 0.5, 1.0, 0.3]]).T.repeat(2, axis=1)
     ex = np.array([[0.6, 0.6, 0.6, 0.0]]).T
-    names, out = expression.combine(["mouthSmileLeft", "jawOpen"], speech, ["mouthSmileLeft", "browInnerUp"], 
+    names, out = expression.combine(["mouthSmileLeft", "jawOpen"], speech, ["mouthSmileLeft", "browInnerUp"],
                                     np.hstack([ex, ex]))
     assert names == ["mouthSmileLeft", "jawOpen", "browInnerUp"]
     smile = out[:, 0]

@@ -17,7 +17,6 @@ the closure step overrides the blend on /p b m/, so the tracks say little
 about it.
 """
 
-import copy
 import json
 
 import numpy as np

@@ -12,7 +12,6 @@ captures exactly, so the margins are modest; the benchmark
 
 import json
 
-import numpy as np
 import pytest
 
 from addon.engine import learning, presets

@@ -57,7 +57,7 @@ def decode(path: str) -> Audio:
         return compat.decode_file(path)
     except AudioError:
         raise
-    except Exception as exc:  # aud raises its own error types
+    except Exception as exc:  # noqa: BLE001 - aud raises its own error types
         raise AudioError(f"cannot decode {path}: {exc}") from None
 
 

@@ -185,7 +185,7 @@ def _praat(path: str, what: str | None) -> Audio:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             sound = parselmouth.Sound(path)
-    except Exception as exc:  # Praat says why in its own words
+    except Exception as exc:  # noqa: BLE001 - Praat says why in its own words
         reason = str(exc).strip().splitlines()[0].strip().rstrip(".") if str(exc).strip() else type(exc).__name__
         it = f"it is {what} that Praat cannot read ({reason})" if what else reason
         raise AudioError(f"cannot read audio file {path}: {it}. "

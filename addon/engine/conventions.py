@@ -99,7 +99,7 @@ class Closure:
         return {"viseme": self.viseme, "relax": self.relax, "relative": dict(self.relative)}
 
     @classmethod
-    def from_json(cls, text: str) -> "Closure":
+    def from_json(cls, text: str) -> Closure:
         """A rule saved with :meth:`to_dict` (an empty or unreadable one: no rule)."""
         try:
             doc = json.loads(text) if text else {}

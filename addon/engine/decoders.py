@@ -27,7 +27,7 @@ import itertools
 import os
 import tempfile
 import threading
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 

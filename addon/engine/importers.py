@@ -143,14 +143,16 @@ def parse_textgrid(text: str, source: str = "TextGrid", audio_duration: float | 
         if values[pos] == "<absent>":
             return {}
         pos += 1
-        n_tiers = int(values[pos]); pos += 1
+        n_tiers = int(values[pos])
+        pos += 1
         tiers: dict[str, list[tuple[float, float, str]]] = {}
         if n_tiers < 0 or n_tiers > len(values):
             raise ValueError(n_tiers)
         for _ in range(n_tiers):
             kind, name = values[pos], values[pos + 1]
             pos += 4  # class, name, xmin, xmax
-            count = int(values[pos]); pos += 1
+            count = int(values[pos])
+            pos += 1
             if count < 0 or count > len(values):
                 raise ValueError(count)
             if kind == "IntervalTier":
@@ -302,7 +304,7 @@ def read_papagayo(path, audio_duration: float | None = None) -> Alignment:
     must be positive and every frame (as a time) not negative, in order within
     its word and not past ``audio_duration`` if given; an error names the line."""
     path = _check(path)
-    lines = [l.strip() for l in _read_text(path).splitlines()]
+    lines = [ln.strip() for ln in _read_text(path).splitlines()]
     if not lines or not lines[0].lower().startswith("lipsync version"):
         raise ImportFormatError(f"{path}: not a Papagayo project (first line must be 'lipsync version 1')")
     times = _Times(path, audio_duration)
@@ -323,10 +325,12 @@ def read_papagayo(path, audio_duration: float | None = None) -> Alignment:
         raw: list[tuple[int, str, int]] = []  # (frame, label, word index)
         for _ in range(n_voices):
             pos += 2  # voice name, full text
-            n_phrases = int(lines[pos]); pos += 1
+            n_phrases = int(lines[pos])
+            pos += 1
             for _ in range(n_phrases):
                 pos += 3  # phrase text, start, end
-                n_words = int(lines[pos]); pos += 1
+                n_words = int(lines[pos])
+                pos += 1
                 for _ in range(n_words):
                     text, start, end, n_ph = lines[pos].split()[:4]
                     where = f"line {pos + 1}"

@@ -56,7 +56,8 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 from .datafile import read_object
 from .errors import PresetError
@@ -147,7 +148,8 @@ def validate(p: dict, source: str = "preset") -> dict:
     no_extra(de, ("phones", "threshold"), "rules.deletion")
     if not isinstance(de.get("phones"), list) or any(not isinstance(ph, str) or ph not in PHONEMES
                                                      for ph in de["phones"]):
-        raise PresetError(source, "rules.deletion.phones", f"must be a list of ARPAbet phonemes, got {de.get('phones')!r}")
+        raise PresetError(source, "rules.deletion.phones",
+                          f"must be a list of ARPAbet phonemes, got {de.get('phones')!r}")
     de["threshold"] = _num(source, "rules.deletion.threshold", de.get("threshold"), 0.0, 0.5)
 
     d = section(p, "dominance", "dominance")
@@ -245,7 +247,7 @@ class Preset:
     expression: dict[str, float] = field(default_factory=dict)   # FACS unit -> strength, 0-1
 
     @classmethod
-    def from_dict(cls, doc: dict, source: str = "preset") -> "Preset":
+    def from_dict(cls, doc: dict, source: str = "preset") -> Preset:
         """A complete preset document (no ``base``), checked: a malformed
         field raises :class:`PresetError` naming it."""
         d = validate(copy.deepcopy(doc), source)
@@ -300,7 +302,7 @@ class Preset:
         return json.dumps(self.to_dict(), sort_keys=True)
 
 
-def as_preset(preset: "Preset | dict", source: str = "preset") -> Preset:
+def as_preset(preset: Preset | dict, source: str = "preset") -> Preset:
     """``preset`` as a :class:`Preset`: a preset document (a dict, which may
     name a ``base``) is resolved and checked."""
     return preset if isinstance(preset, Preset) else Preset.from_dict(resolve(dict(preset), source), source)

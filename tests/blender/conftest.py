@@ -44,8 +44,8 @@ os.environ["TMPDIR"] = _TMP
 atexit.register(shutil.rmtree, _TMP, True)
 atexit.register(shutil.rmtree, _USER, True)
 
-import bpy  # noqa: E402
-import pytest  # noqa: E402
+import bpy
+import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 FIXTURES = os.path.join(ROOT, "tests", "fixtures")
@@ -53,8 +53,8 @@ SAMPLE = os.path.join(ROOT, "sample_rigs", "speech", "hello.wav")
 MODULE = "bl_ext.user_default.emotive_lipsync"
 
 sys.path.insert(0, os.path.join(ROOT, "sample_rigs"))
-import build_rigs  # noqa: E402
-import sound_strips  # noqa: E402
+import build_rigs
+import sound_strips
 
 
 #: Tests that use Blender's ``aud`` module themselves, skipped on a ``bpy``

@@ -11,7 +11,7 @@ from importlib import import_module
 import bpy
 import pytest
 
-from conftest import FIXTURES, MODULE, add_strip, keyed_shape_keys
+from conftest import FIXTURES, MODULE, keyed_shape_keys
 
 BOB = os.path.join(FIXTURES, "bob_map.wav")
 

@@ -31,7 +31,7 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import FIXTURES, MODULE, SAMPLE, add_strip, keyed_shape_keys
+from conftest import FIXTURES, MODULE, SAMPLE, keyed_shape_keys
 from heads import BILABIALS, FPS, Opening, measure
 
 import human

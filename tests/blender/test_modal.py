@@ -356,7 +356,7 @@ def test_invoke_without_a_window_runs_synchronously(scene, jobs):
     assert bpy.app.background
     for cls in (_mod("operators").LIPSYNC_OT_generate, _mod("learning").LIPSYNC_OT_learn_preset):
         ran = []
-        stand_in = SimpleNamespace(execute=lambda context: ran.append(context) or {"FINISHED"})
+        stand_in = SimpleNamespace(execute=lambda context, ran=ran: ran.append(context) or {"FINISHED"})
         assert cls.invoke(stand_in, bpy.context, _event("LEFTMOUSE", "PRESS")) == {"FINISHED"}
         assert ran == [bpy.context]
     assert bpy.ops.emotive_lipsync.generate("INVOKE_DEFAULT", mesh="Ada") == {"FINISHED"}
@@ -391,7 +391,8 @@ def test_learn_preset_job_saves_only_when_it_finishes(scene, jobs):
         seen.append(job.fraction)
         time.sleep(0.01)
     outcome = job.poll()
-    assert outcome.finished and outcome.message.startswith("Learned preset 'kit_job' from 3 clips (leave-one-clip-out, 3 held out)")
+    assert outcome.finished and outcome.message.startswith(
+        "Learned preset 'kit_job' from 3 clips (leave-one-clip-out, 3 held out)")
     assert os.path.isfile(path) and scene.emotive_lipsync.emotion == "kit_job"
     assert seen == sorted(seen) and job.fraction == 1.0  # the steps add up to one bar
 

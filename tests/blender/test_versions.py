@@ -16,7 +16,6 @@ from importlib import import_module
 
 import bpy
 import numpy as np
-import pytest
 
 from conftest import _USER, EXTENSION_DIR, FIXTURES, MODULE, extension_deprecations
 

@@ -55,5 +55,6 @@ from .chunks import plan_chunks
 from .transcript import align_audio, align_file
 
 __all__ = ["align", "align_audio", "align_file", "check_transcript_matches", "AlignSettings", "Alignment",
-           "AlignedWord", "AlignedPhone", "FRAME", "TYPICAL_DURATION", "typical_duration", "frame_levels", "speech_mask", "pauses",
+           "AlignedWord", "AlignedPhone", "FRAME", "TYPICAL_DURATION", "typical_duration", "frame_levels",
+           "speech_mask", "pauses",
            "unspoken_speech", "plan_chunks"]

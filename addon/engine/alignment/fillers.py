@@ -17,7 +17,7 @@ spread over the time the filler took.
 from __future__ import annotations
 
 import re
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

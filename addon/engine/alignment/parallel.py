@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
-from typing import Callable
+from collections.abc import Callable
 
 from .model import AlignSettings
 
@@ -67,7 +67,7 @@ class Background:
         try:
             if self._future is not None:
                 return self._future.result()
-        except Exception:  # the worker died or raised: compute it here
+        except Exception:  # noqa: BLE001 - the worker died or raised: compute it here
             pass
         finally:
             self.close()

@@ -16,9 +16,8 @@ recogniser gets mostly right.  Recognised words carry ``recognized = True``.
 
 from __future__ import annotations
 
-import os
 import re
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures.process import BrokenProcessPool
-from typing import Callable
+from collections.abc import Callable
 
 from .. import audio as audio_mod
 from ..audio import Audio

@@ -35,7 +35,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field, fields
-from typing import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 
 from .lines import COLUMNS, FORMATS, ROW_COLUMNS, Defaults, Line, Outcome, check_audio_path, line_text, \
     transcript_file

@@ -39,7 +39,7 @@ import zipfile
 from dataclasses import asdict
 from functools import lru_cache
 from pathlib import Path
-from typing import Iterator
+from collections.abc import Iterator
 
 from ..errors import LipSyncError
 from .lines import Defaults, Line, Outcome
@@ -66,7 +66,7 @@ def environment() -> dict[str, str | None]:
     installed here (None when missing)."""
     from importlib.metadata import PackageNotFoundError, version
 
-    env: dict[str, str | None] = {"python": "%d.%d" % sys.version_info[:2]}
+    env: dict[str, str | None] = {"python": "{}.{}".format(*sys.version_info[:2])}
     for name in PACKAGES:
         try:
             env[name] = version(name)
@@ -176,13 +176,13 @@ def _task_functions():
     def probe(name, files, expected, dictionary):
         try:
             return {"problem": load(name, files).worker_check(expected, dictionary)}
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - a worker that cannot load the engine is reported, not raised
             return problem(exc)
 
     def run_line(line, name, files, expected, defaults):
         try:
             out = load(name, files).worker_line(line, defaults, expected)
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - a worker that cannot load the engine is reported, not raised
             out = problem(exc)
         if out.get("problem"):
             out["worker"] = here()
@@ -221,7 +221,7 @@ def _check(expected: dict, dictionary: str | None) -> str | None:
         warm(dictionary)
     except ImportError as exc:   # what the worker's environment lacks
         return f"cannot load the lip-sync engine: {exc}"
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - any other failure to load, said in one line
         return f"cannot load the lip-sync engine: {one_line_error(exc)}"
     return None
 
@@ -308,7 +308,7 @@ def _within(seconds: float, what: str, fn, *args, **kwargs):
     def call():
         try:
             box["value"] = fn(*args, **kwargs)
-        except BaseException as exc:  # handed to the caller's thread
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
             box["error"] = exc
 
     t = threading.Thread(target=call, daemon=True)
@@ -352,7 +352,7 @@ def run_dask(lines, defaults, scheduler, timeout: float = DEFAULT_TIMEOUT) -> It
         if own:
             try:
                 client = Client(scheduler, timeout=timeout, set_as_default=False)
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - any failure to connect, said in one line
                 raise LipSyncError(f"cannot reach the Dask scheduler at {scheduler}: {_one_line(exc)}") from None
         else:
             client = scheduler
@@ -361,13 +361,13 @@ def run_dask(lines, defaults, scheduler, timeout: float = DEFAULT_TIMEOUT) -> It
             yield from _run(client, address, lines, defaults, deadline, timeout)
         except LipSyncError:
             raise
-        except Exception as exc:   # what the cluster did, said in one line
+        except Exception as exc:  # noqa: BLE001 - what the cluster did, said in one line
             raise LipSyncError(f"the Dask cluster at {address} failed: {_one_line(exc)}") from None
     finally:
         if own and client is not None:
             try:
                 client.close(timeout=min(10.0, timeout))
-            except Exception:  # closing a client whose scheduler is gone
+            except Exception:  # noqa: BLE001 - closing a client whose scheduler is gone
                 pass
         if quiet is not None:
             quiet.__exit__(None, None, None)
@@ -389,7 +389,7 @@ def _run(client, address, lines, defaults, deadline, timeout) -> Iterator:
         raise LipSyncError(f"the Dask scheduler at {address} {diff}{VERSIONS_HINT}")
     try:
         client.wait_for_workers(1, timeout=left())
-    except Exception:
+    except Exception:  # noqa: BLE001 - distributed's timeouts come in several types
         raise LipSyncError(f"no Dask worker joined the scheduler at {address} within {timeout:g} s") from None
     for worker, info in sorted((versions().get("workers") or {}).items()):
         if isinstance(info, dict) and "packages" in info:
@@ -503,7 +503,7 @@ class _Watch:
                 raise ConnectionError(self.client.status)
             info = _within(min(10.0, self.timeout), "no answer", self.client.scheduler_info, n_workers=0)
             trouble = None if info.get("n_workers") else "has had no workers"
-        except Exception:
+        except Exception:  # noqa: BLE001 - a scheduler that does not answer, whatever the error
             trouble = "has not answered"
         if trouble is None:
             self.trouble_since = None

@@ -9,7 +9,7 @@ import io
 import json
 import os
 from pathlib import Path
-from typing import Iterable, Iterator
+from collections.abc import Iterable, Iterator
 
 from ..errors import LipSyncError
 from .lines import COLUMNS, ROW_COLUMNS, Line

@@ -222,7 +222,7 @@ def freshness(line: Line, defaults: Defaults, digests: Digests | None = None) ->
     records = [read_record(fmt, path) for fmt, path in line.outputs.items()]
     try:
         line.record = produced_by(line, defaults, next((r for r in records if r), None), digests)
-    except Exception:  # the line's own run reports what cannot be read
+    except Exception:  # noqa: BLE001 - the line's own run reports what cannot be read
         line.record = None
         return False, None
     stale = [r for r in records if not r or r.get("fingerprint") != line.record["fingerprint"]]

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from ..errors import LipSyncError
 from .lines import Defaults, Line, Outcome, check_audio_path, line_text, transcript_file
@@ -32,7 +32,7 @@ def warm(dictionary: str | None = None) -> None:
     presets.builtin_names()
     try:
         _decoder([["HH", "AH"]], 0, AlignSettings())
-    except Exception:  # a broken model shows up as each line's own error
+    except Exception:  # noqa: BLE001 - a broken model shows up as each line's own error
         pass
     if dictionary:
         try:
@@ -84,11 +84,11 @@ def work(line: Line, defaults: Defaults) -> Outcome:
     if record is None and line.outputs:
         try:
             record = produced_by(line, defaults)
-        except Exception:  # whatever cannot be read fails the line below, with its own message
+        except Exception:  # noqa: BLE001 - whatever cannot be read fails the line below, with its own message
             record = None
     try:
         result = analyze_line(line, defaults)
-    except Exception as exc:  # one bad line must not stop the others
+    except Exception as exc:  # noqa: BLE001 - one bad line must not stop the others
         return Outcome(line.number, line.label(), "failed", error=one_line_error(exc),
                        seconds=time.perf_counter() - t0)
     from ..output import beyond_script

@@ -25,7 +25,7 @@ from .phonemes import PHONEMES, strip_stress
 from .text import Word
 
 _LOCK = threading.Lock()
-_CMU: "_SortedDictionary | None" = None
+_CMU: _SortedDictionary | None = None
 _SPOKEN: dict[tuple[str, str], list[str]] = {}   # (eSpeak voice, word) -> phones
 
 
@@ -150,7 +150,7 @@ class Lexicon:
     language: Language = field(default_factory=resolve)
 
     @classmethod
-    def with_user_file(cls, path: str | os.PathLike | None, language: str | Language | None = None) -> "Lexicon":
+    def with_user_file(cls, path: str | os.PathLike | None, language: str | Language | None = None) -> Lexicon:
         lang = resolve(language)
         if not path:
             return cls(language=lang)

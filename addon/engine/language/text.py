@@ -187,8 +187,8 @@ def normalize(text: str, language: str | Language | None = None) -> list[Word]:
     text = text.translate(_QUOTES)
     lines = text.splitlines()
     # A line holding only a roman numeral is a heading (a sonnet's number).
-    lines = [(" ".join(numbers.cardinal(_roman_value(l.strip()))) + ".")
-             if _ROMAN.match(l.strip()) and len(l.strip()) > 1 else l for l in lines]
+    lines = [(" ".join(numbers.cardinal(_roman_value(ln.strip()))) + ".")
+             if _ROMAN.match(ln.strip()) and len(ln.strip()) > 1 else ln for ln in lines]
     text = _strip_stage_directions("\n".join(lines))
     words: list[Word] = []
     tokens = list(_TOKEN.finditer(text))

@@ -65,7 +65,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -429,7 +429,8 @@ def _start_map(vset, channels: list[str], given: dict | None) -> dict[str, dict[
 
 
 def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "neutral",
-          viseme_set: str = "arkit", name: str = "learned", holdout: float = 0.2, variance: float = 0.99, fps: float = 30.0,
+          viseme_set: str = "arkit", name: str = "learned", holdout: float = 0.2, variance: float = 0.99,
+          fps: float = 30.0,
           max_iter: int = 60, patience: int = 5, seed: int = 0, ridge: float = 1e-3,
           heldout: list[int] | None = None, cross_validate: bool | None = None, max_folds: int = MAX_FOLDS,
           regularisation: float = 1e-5, closure_weight: float = 3.0, delay: float | None = None,

@@ -77,7 +77,7 @@ class Judge:
         fold's learned poses or None)."""
         s = self.s
         start, learned = [], []
-        for (tr, ho, f), ys in zip(self.folds, self.measured):
+        for tr, ho, f in self.folds:
             P = shift(s.P0, f.Pm, timing)
             hold = [self.prepared[i] for i in ho]
             if s.calibrated:
