@@ -93,6 +93,18 @@ def _once_per_name(lookup: Callable[[str], presets.Preset]) -> Callable[[str], p
     return once
 
 
+def _align(snd: Audio, text: str | None, lang, dictionary: str | None, settings: AlignSettings | None,
+           progress: Callable[[float], None]) -> Alignment:
+    """The transcript aligned to the audio, or, with no transcript, the
+    words recognised in it (English only)."""
+    if text is None:
+        if not lang.is_english:
+            raise LipSyncError(f"a line in {lang.name} needs its transcript: without one, speech is "
+                               "recognised in English only")
+        return recognize(snd, settings, progress)
+    return align_audio(snd, text, Lexicon.with_user_file(dictionary, lang), settings, progress)
+
+
 def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
             viseme_set: str | None = None, emotion: str | os.PathLike | presets.Preset | dict = "neutral",
@@ -154,16 +166,9 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             raise AudioError(f"{name} is too short to hold speech ({snd.duration:.3f} s; "
                              f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
-        lexicon = Lexicon.with_user_file(dictionary, lang)
         background = _voice_beside_alignment(snd, settings, voice_model)
         try:
-            if text is None:
-                if not lang.is_english:
-                    raise LipSyncError(f"a line in {lang.name} needs its transcript: without one, speech is "
-                                       "recognised in English only")
-                al = recognize(snd, settings, lambda f: report("align", 0.1 + 0.7 * f))
-            else:
-                al = align_audio(snd, text, lexicon, settings, lambda f: report("align", 0.1 + 0.7 * f))
+            al = _align(snd, text, lang, dictionary, settings, lambda f: report("align", 0.1 + 0.7 * f))
         except BaseException:
             if background is not None:
                 background.close()
