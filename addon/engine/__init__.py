@@ -15,7 +15,7 @@ below its own; ``tests/test_structure.py`` checks it):
    :mod:`.arousal`; :mod:`.alignment` (forced alignment) and
    :mod:`.importers` (TextGrid, Rhubarb, Papagayo alignments);
 4. the animation: :mod:`.coarticulation`, :mod:`.emotion_track`, :mod:`.expression`, :mod:`.render`,
-   :mod:`.mapping`, :mod:`.key_reduction`;
+   :mod:`.mapping`, :mod:`.key_reduction`, :mod:`.pose_blend` (a bone rig's poses blended);
 5. :mod:`.output` (the result and its files), :mod:`.pipeline` (the whole
    job), :mod:`.learning` (presets learned from captured motion);
 6. the programs: :mod:`.batch`, :mod:`.cli`, :mod:`.arousal_cli`.
