@@ -42,7 +42,8 @@ class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
     """One viseme driving one shape key with a weight."""
 
     viseme: StringProperty(override=_OV, name="Viseme", description="Viseme of the mesh's viseme set")
-    shape_key: StringProperty(override=_OV, name="Shape Key", description="Shape key this viseme drives")
+    shape_key: StringProperty(override=_OV, name="Shape Key", description="Shape key this viseme drives (on an "
+                                                                          "armature: a pose asset or a property)")
     weight: FloatProperty(name="Weight", description="How much of the viseme's curve goes into the shape key",
                           default=1.0, min=0.0, soft_max=1.0, max=2.0, override=_OV)
 
@@ -117,7 +118,7 @@ def _number_or_word(token: str):
 
 
 def _target_poll(_self, obj):
-    return obj.type == "MESH"
+    return obj.type in ("MESH", "ARMATURE")
 
 
 class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
@@ -133,7 +134,8 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
     text_block: PointerProperty(name="Text Block", type=bpy.types.Text,
                                 description="A text block holding the transcript")
     target: PointerProperty(name="Face", type=bpy.types.Object, poll=_target_poll,
-                            description="Mesh whose shape keys are animated (empty: the active object)")
+                            description="Mesh whose shape keys, or armature whose pose assets and properties, "
+                                        "are animated (empty: the active object)")
     emotion: StringProperty(name="Emotion", default="neutral",
                             description="Emotion preset the numbers below were loaded from")
     preset_values: CollectionProperty(type=LIPSYNC_PG_preset_value)

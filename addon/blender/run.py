@@ -21,7 +21,7 @@ from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
 from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
-from . import compat, emotion_markers, keying, userdata
+from . import compat, emotion_markers, keying, rig, userdata
 from .sources import Clip, scene_fps
 
 
@@ -83,6 +83,7 @@ class Summary:
     expression_keys: list[str] = field(default_factory=list)   # the shape keys they drove
     no_key: list[str] = field(default_factory=list)          # the preset's units the mesh has no key for
     kept: list[str] = field(default_factory=list)            # expression keys left to the user's animation
+    driven: str = "shape keys"                               # what ``shape_keys`` counts
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
@@ -95,18 +96,23 @@ class Summary:
             face += f"; no shape key shows {', '.join(self.no_key)} (left out)"
         if self.kept:
             face += f"; kept your animation on {', '.join(self.kept)} (not keyed)"
-        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys{also}, "
+        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} {self.driven}{also}, "
                 f"frames {self.first_frame}-{self.last_frame}{again}{est}{face}, in {self.seconds:.1f} s"
                 + "".join(f"; warning: {w}" for w in self.warnings))
 
 
 def check_mesh(obj) -> list[str]:
-    """The mesh's shape-key names, or a clear error."""
+    """The target's names, or a clear error: a mesh's shape keys (its Basis
+    first), an armature's pose assets and properties (:func:`.rig.names`)."""
     if obj is None:
         raise LipSyncError("no face mesh: pick one in the Lip Sync panel, or make it the active object")
+    if obj.type == "ARMATURE":
+        names = rig.check(obj)
+        check_editable(obj)
+        return names
     if obj.type != "MESH":
-        raise LipSyncError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh: lip sync animates a mesh's "
-                           "shape keys")
+        raise LipSyncError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh or an armature: lip sync animates a "
+                           "mesh's shape keys or an armature's pose assets and properties")
     key = obj.data.shape_keys
     if key is None or len(key.key_blocks) < 2:
         raise LipSyncError(f"mesh {obj.name!r} has no shape keys to animate: add a Basis key and the mouth "
@@ -132,14 +138,16 @@ def check_editable(obj) -> None:
     here: the object, its mesh, its shape keys or their action linked from a
     library (the keys would be lost on reload, or refused).  An editable
     library override of the object and its mesh works."""
-    key = obj.data.shape_keys
+    key = obj.data.shape_keys if obj.type == "MESH" else obj
     action = key.animation_data.action if key is not None and key.animation_data is not None else None
     for what, idb in ((f"object {obj.name!r}", obj), (f"mesh data {obj.data.name!r}", obj.data),
-                      (f"shape keys {key.name!r}" if key is not None else "", key),
+                      (f"shape keys {key.name!r}" if key is not None and key is not obj else "",
+                       key if key is not obj else None),
                       (f"action {action.name!r}" if action is not None else "", action)):
         why = _linked_from(idb) if idb is not None else None
         if why:
-            fix = ("assign a local action to the shape keys" if idb is action else
+            fix = ("assign a local action to the " + ("armature" if obj.type == "ARMATURE" else "shape keys")
+                   if idb is action else
                    "make a library override of it and its mesh (Object > Library Override > Make, "
                    "then make the mesh editable) or make it local (Object > Relations > Make Local)")
             raise LipSyncError(f"{obj.name!r} cannot be animated: its {what} is {why}; {fix}. Nothing was changed")
@@ -210,17 +218,25 @@ def detect(obj, viseme_set: str | None = None, convention: str | None = None) ->
         if not candidates:
             raise LipSyncError(f"{convention!r} is not a naming convention: {', '.join(known)}")
         chosen = None
-    found = conventions.detect(names, candidates, sets, (obj.name, obj.data.name), chosen)
+    prefixes = (obj.name, obj.data.name)
+    if obj.type == "ARMATURE":   # a pose bone's property is named "bone:property"
+        prefixes += tuple(pb.name for pb in (obj.pose.bones if obj.pose is not None else []) if pb.keys())
+    found = conventions.detect(names, candidates, sets, prefixes, chosen)
     if found is None:
+        what = _what(obj)
         if convention:
-            raise LipSyncError(f"none of the shape keys of {obj.name!r} follow the convention {convention!r}")
+            raise LipSyncError(f"none of the {what} of {obj.name!r} follow the convention {convention!r}")
         if chosen:
-            raise LipSyncError(f"none of the shape keys of {obj.name!r} match the viseme set {chosen!r}: map them "
+            raise LipSyncError(f"none of the {what} of {obj.name!r} match the viseme set {chosen!r}: map them "
                                "in the Lip Sync panel, or set Viseme Set to Automatic")
-        raise LipSyncError(f"none of the shape keys of {obj.name!r} follow a naming convention this add-on knows "
+        raise LipSyncError(f"none of the {what} of {obj.name!r} follow a naming convention this add-on knows "
                            f"({', '.join(c.label for c in candidates)}): map them in the Lip Sync panel's "
                            "Visemes and Shape Keys list, or add a convention file")
     return found
+
+
+def _what(obj) -> str:
+    return "pose assets and properties" if obj.type == "ARMATURE" else "shape keys"
 
 
 def apply(obj, found: conventions.Match) -> None:
@@ -250,7 +266,9 @@ def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]], c
         mp = st.mapping_dict()
     missing = sorted({k for mix in mp.values() for k in mix} - set(names))
     if missing:
-        raise LipSyncError(f"mesh {obj.name!r} has no shape key named {', '.join(map(repr, missing))}: "
+        what = "armature {!r} has no pose asset or property" if obj.type == "ARMATURE" else \
+            "mesh {!r} has no shape key"
+        raise LipSyncError(f"{what.format(obj.name)} named {', '.join(map(repr, missing))}: "
                            "fix the mapping in the Lip Sync panel or press Auto-Map")
     return mesh_viseme_set(obj), mp, conventions.Closure.from_json(st.closure_rule)
 
@@ -306,11 +324,14 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
-    face = conventions.expression_match(check_mesh(obj), all_conventions(), (obj.name, obj.data.name),
-                                        prefer=obj.emotive_lipsync.convention)
+    if obj.type == "ARMATURE":   # the expression layer drives shape keys only
+        face = conventions.ExpressionMatch({})
+    else:
+        face = conventions.expression_match(check_mesh(obj), all_conventions(), (obj.name, obj.data.name),
+                                            prefer=obj.emotive_lipsync.convention)
     driven = {k for mix in mp.values() for k in mix} | set(closure.relative) | \
         {k for mix in face.mapping.values() for k in mix}
-    also = [o.name for o in companions(obj, driven)] if options.whole_character else []
+    also = [o.name for o in companions(obj, driven)] if options.whole_character and obj.type == "MESH" else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
     return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
@@ -336,6 +357,8 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
     names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
+    if obj.type == "ARMATURE":
+        return _key_rig(obj, plan, analysis, names, values, t0)
     speech = list(names)
     face = _expression_keys(obj, plan, result, names, len(values))
     ex_values = face["values"]
@@ -377,6 +400,35 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
                    len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
                    len(words), {"engine": analysis.seconds, "keying": t1 - t0}, also, list(result.warnings),
                    face["units"], face["names"], face["no_key"], face["kept"])
+
+
+def closing_names(vset: visemes.VisemeSet, mapping: dict[str, dict[str, float]]) -> list[str]:
+    """The names the visemes of /p b m/ drive (the poses that shut the lips)."""
+    out = []
+    for phone in ("P", "B", "M"):
+        for v in vset.phonemes.get(phone, []):
+            out += [k for k in mapping.get(v, {}) if k not in out]
+    return out
+
+
+def _key_rig(obj, plan: Plan, analysis: Analysis, names: list[str], values, t0: float) -> Summary:
+    """:func:`key` on an armature: the mapped poses blended onto its bones,
+    its mapped properties keyed as shape keys are."""
+    result, clip = analysis.result, plan.clip
+    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
+    gone = sorted(set(names) - set(check_mesh(obj)))
+    if gone:
+        raise LipSyncError(f"armature {obj.name!r} no longer has pose asset or property "
+                           f"{', '.join(map(repr, gone))}; nothing was keyed")
+    paths, curves = rig.channels(obj, names, values, closing_names(result.viseme_set, plan.mapping),
+                                 result.closure)
+    counts = keying.write_rig(obj, paths, curves, clip.first_frame, plan.options.tolerance, clip.label)
+    t1 = time.perf_counter()
+    words = result.alignment.words
+    return Summary(obj.name, clip.label, t1 - plan.started, counts["first_frame"], counts["last_frame"],
+                   len(names), counts["keys"], counts["replaced"], sum(1 for w in words if w.estimated),
+                   len(words), {"engine": analysis.seconds, "keying": t1 - t0}, [], list(result.warnings),
+                   driven=f"poses and properties ({len(paths)} bone and property channels)")
 
 
 def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames: int) -> dict:

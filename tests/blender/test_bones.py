@@ -1,0 +1,268 @@
+"""Mouths moved by bones: an armature lip-synced through pose assets (Actions
+marked as assets) and through custom properties.
+
+The rig is built here: a jaw (Euler rotation) carrying the lower lip, an
+upper lip (quaternion), a lip corner (axis angle), a brow the user animates
+and a root no pose touches.  Its viseme poses follow the Preston Blair names
+(``MBP``, ``AI``, ``O`` ...), so Auto-Map finds them; ``MBP`` shuts the lips,
+which stand apart at rest.  The lip gap is measured between the evaluated
+``lip.T`` and ``lip.B`` bones.
+"""
+
+from __future__ import annotations
+
+import os
+from importlib import import_module
+
+import bpy
+import numpy as np
+import pytest
+
+from conftest import FIXTURES, MODULE, add_strip
+from test_gltf import _accessor, _read_gltf
+
+BOB = os.path.join(FIXTURES, "bob_map.wav")
+BOB_TEXT = "Bob bought a map."
+START = 11
+FPS = 24
+REST_GAP = 0.1
+OPEN_VOWELS = {"AA", "AO", "AE"}
+
+#: Viseme poses: bone -> {channel: value}.  The jaw opens by rotating about X.
+POSES = {
+    "MBP": {"lip.T": {"location": (0, -0.05, 0)}, "lip.B": {"location": (0, -0.05, 0)}},
+    "AI": {"jaw": {"rotation_euler": (0.35, 0, 0)}, "lips.L": {"rotation_axis_angle": (0.2, 0, 0, 1)}},
+    "O": {"jaw": {"rotation_euler": (0.25, 0, 0)}, "lip.T": {"rotation_quaternion": (0.995, 0.0998, 0, 0)},
+          "lips.L": {"rotation_axis_angle": (0.3, 1, 0, 0)}},
+    "E": {"jaw": {"rotation_euler": (0.15, 0, 0)}, "lips.L": {"location": (0.02, 0, 0)}},
+    "U": {"jaw": {"rotation_euler": (0.1, 0, 0)}, "lip.T": {"scale": (0.8, 1, 1)}},
+    "etc": {"jaw": {"rotation_euler": (0.08, 0, 0)}},
+    "FV": {"lip.B": {"location": (0, -0.04, 0)}},
+}
+BONES = {   # name: (head, tail, parent, rotation mode)
+    "root": ((0, 0, 0), (0, 0, 0.2), None, "QUATERNION"),
+    "jaw": ((0, 0, 0), (0, -1, -0.2), "root", "XYZ"),
+    "lip.T": ((0, -1, 0.05), (0, -1, 0.15), "root", "QUATERNION"),
+    "lip.B": ((0, -1, -0.05), (0, -1, -0.15), "jaw", "QUATERNION"),
+    "lips.L": ((0.3, -0.9, 0), (0.4, -0.9, 0), "root", "AXIS_ANGLE"),
+    "brow": ((0, -0.9, 0.5), (0, -0.9, 0.6), "root", "QUATERNION"),
+}
+USER_BROW = [(1.0, 0.0), (30.0, 0.04), (80.0, -0.02)]   # the user's own keys (frame, location y)
+
+
+def _mod(name):
+    return import_module(f"{MODULE}.blender.{name}")
+
+
+def _build_rig(props=False):
+    """The test rig (module docstring) with its viseme poses as pose assets
+    and the user's brow animation in the rig's own action."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.fps, sc.render.fps_base = FPS, 1.0
+    arm = bpy.data.armatures.new("RigData")
+    rig = bpy.data.objects.new("Rig", arm)
+    sc.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    for name, (head, tail, parent, _mode) in BONES.items():
+        eb = arm.edit_bones.new(name)
+        eb.head, eb.tail = head, tail
+        if parent:
+            eb.parent = arm.edit_bones[parent]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    for name, (_h, _t, _p, mode) in BONES.items():
+        rig.pose.bones[name].rotation_mode = mode
+    rig.animation_data_create()
+    if not props:
+        for pose, bones in POSES.items():
+            rig.animation_data.action = bpy.data.actions.new(pose)
+            for bone, channels in bones.items():
+                pb = rig.pose.bones[bone]
+                for ch, value in channels.items():
+                    setattr(pb, ch, value)
+                    pb.keyframe_insert(ch, frame=1)
+                    setattr(pb, ch, (1, 1, 1) if ch == "scale" else
+                            (1, 0, 0, 0) if ch == "rotation_quaternion" else
+                            (0, 0, 1, 0) if ch == "rotation_axis_angle" else (0, 0, 0))
+            rig.animation_data.action.asset_mark()
+    # The user's own animation: the brow, in an action of the rig.
+    rig.animation_data.action = bpy.data.actions.new("RigAction")
+    brow = rig.pose.bones["brow"]
+    for frame, y in USER_BROW:
+        brow.location = (0, y, 0)
+        brow.keyframe_insert("location", index=1, frame=frame)
+    brow.location = (0, 0, 0)
+    return sc, rig
+
+
+def _brow_keys(rig):
+    fc = _mod("compat").find_fcurve(rig, 'pose.bones["brow"].location', 1)
+    return [tuple(k.co) for k in fc.keyframe_points]
+
+
+def _bone_fcurves(rig):
+    return {(fc.data_path, fc.array_index) for fc in _mod("compat").fcurves(rig)}
+
+
+def _generate(rig, **kw):
+    return bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", mesh=rig.name, text=BOB_TEXT, **kw)
+
+
+@pytest.fixture
+def bone_rig(extension):
+    sc, rig = _build_rig()
+    add_strip(sc, "line", BOB, frame=START)
+    return sc, rig
+
+
+def _gap(sc, rig, frame):
+    sc.frame_set(frame)
+    ev = rig.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return float((ev.pose.bones["lip.T"].head - ev.pose.bones["lip.B"].head).length)
+
+
+def _phones():
+    decoded = _mod("sources").decode(BOB)
+    return import_module(MODULE + ".engine.pipeline").align_audio(decoded, BOB_TEXT).phones
+
+
+def test_rest_pose_is_open_and_mbp_meets(bone_rig):
+    sc, rig = bone_rig
+    assert _gap(sc, rig, 1) == pytest.approx(REST_GAP, abs=1e-6)
+
+
+def test_pose_assets_lip_sync_closes_and_opens(bone_rig):
+    sc, rig = bone_rig
+    assert bpy.ops.emotive_lipsync.auto_map("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
+    mp = rig.emotive_lipsync.mapping_dict()
+    assert mp["MBP"] == {"MBP": 1.0} and mp["AI"] == {"AI": 1.0}
+    before = _brow_keys(rig)
+    assert _generate(rig) == {"FINISHED"}
+    curves = _bone_fcurves(rig)
+    for path in ('pose.bones["jaw"].rotation_euler', 'pose.bones["lip.T"].location',
+                 'pose.bones["lip.T"].rotation_quaternion', 'pose.bones["lips.L"].rotation_axis_angle',
+                 'pose.bones["lip.B"].location', 'pose.bones["lip.T"].scale'):
+        assert (path, 0) in curves, path
+    # Bones no pose touches are left alone, the user's brow keys too.
+    assert not any('"root"' in p for p, _i in curves)
+    assert not any(p.startswith('pose.bones["brow"]') and p != 'pose.bones["brow"].location' for p, _i in curves)
+    assert _brow_keys(rig) == before
+    # Quaternions stay unit.
+    compat = _mod("compat")
+    q = np.array([[compat.find_fcurve(rig, 'pose.bones["lip.T"].rotation_quaternion', i).evaluate(f)
+                   for i in range(4)] for f in range(START, START + 40)])
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-4)
+    # The lips meet at every /p b m/ and open on the open vowels.
+    phones = _phones()
+    bilabials = [p for p in phones if p.phone in {"P", "B", "M"}]
+    assert len(bilabials) >= 3
+    for p in bilabials:
+        frames = range(int(np.floor(START + (p.start - 1 / FPS) * FPS)), int(np.ceil(START + (p.end + 1 / FPS) * FPS)) + 1)
+        gaps = [_gap(sc, rig, f) for f in frames]
+        assert min(gaps) < 0.01, f"lips apart ({min(gaps):.3f}) during /{p.phone}/ at {p.start:.2f} s"
+    vowels = [p for p in phones if p.phone in OPEN_VOWELS]
+    assert len(vowels) >= 3
+    opened = [max(_gap(sc, rig, f) for f in range(int(START + p.start * FPS), int(START + p.end * FPS) + 1))
+              for p in vowels]
+    assert sum(g > REST_GAP + 0.1 for g in opened) >= 0.75 * len(vowels), opened
+
+
+def test_replace_clear_and_undo(bone_rig):
+    sc, rig = bone_rig
+    before = _brow_keys(rig)
+    assert _generate(rig, tolerance=0.0) == {"FINISHED"}
+    compat = _mod("compat")
+    jaw = compat.find_fcurve(rig, 'pose.bones["jaw"].rotation_euler', 0)
+    first = [tuple(k.co) for k in jaw.keyframe_points]
+    assert len(first) > 20
+    # A second Generate replaces the first: the same keys, not twice as many.
+    assert _generate(rig, tolerance=0.0) == {"FINISHED"}
+    jaw = compat.find_fcurve(rig, 'pose.bones["jaw"].rotation_euler', 0)
+    np.testing.assert_allclose([tuple(k.co) for k in jaw.keyframe_points], first)
+    assert _brow_keys(rig) == before
+    # Clear removes the lip sync only.
+    assert bpy.ops.emotive_lipsync.clear("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
+    assert _bone_fcurves(rig) == {('pose.bones["brow"].location', 1)}
+    assert _brow_keys(rig) == before
+    # Undo takes a Generate back.
+    bpy.ops.ed.undo_push(message="before lip sync")
+    assert bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", True, mesh="Rig", text=BOB_TEXT) == {"FINISHED"}
+    assert len(_bone_fcurves(bpy.data.objects["Rig"])) > 1
+    bpy.ops.ed.undo()
+    rig = bpy.data.objects["Rig"]
+    assert _bone_fcurves(rig) == {('pose.bones["brow"].location', 1)}
+    assert not _mod("keying").lipsynced(rig)
+
+
+def test_custom_properties_are_keyed_like_shape_keys(extension):
+    sc, rig = _build_rig(props=True)
+    add_strip(sc, "line", BOB, frame=START)
+    for name in ("viseme_PP", "viseme_aa", "viseme_O", "viseme_sil"):
+        rig[name] = 0.0
+    rig.pose.bones["jaw"]["viseme_E"] = 0.0
+    rig["rig_id"] = "not a number"
+    assert bpy.ops.emotive_lipsync.auto_map("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
+    mp = rig.emotive_lipsync.mapping_dict()
+    assert mp["PP"] == {"viseme_PP": 1.0} and mp["E"] == {"jaw:viseme_E": 1.0}
+    assert _generate(rig) == {"FINISHED"}
+    compat = _mod("compat")
+    pp = compat.find_fcurve(rig, '["viseme_PP"]')
+    e = compat.find_fcurve(rig, 'pose.bones["jaw"]["viseme_E"]')
+    aa = compat.find_fcurve(rig, '["viseme_aa"]')
+    assert pp is not None and e is not None and aa is not None
+    # The closing property peaks at every /p b m/ (as a closing shape key does), the open one gives way.
+    top = max(pp.evaluate(f) for f in range(START, START + 40))
+    assert top > 0.3
+    for p in [p for p in _phones() if p.phone in {"P", "B", "M"}]:
+        frames = np.arange(START + (p.start - 1 / FPS) * FPS, START + (p.end + 1 / FPS) * FPS, 0.5)
+        best = max(frames, key=pp.evaluate)
+        assert pp.evaluate(best) >= 0.8 * top, (p.phone, pp.evaluate(best))
+        assert aa.evaluate(best) < 0.1
+    assert max(aa.evaluate(f) for f in range(START, START + 40)) > 0.3
+    assert bpy.ops.emotive_lipsync.clear("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
+    assert _bone_fcurves(rig) == {('pose.bones["brow"].location', 1)}
+
+
+def test_not_a_target(extension):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    bpy.context.scene.collection.objects.link(cam)
+    run = _mod("run")
+    with pytest.raises(import_module(MODULE + ".engine.errors").LipSyncError, match="not a mesh or an armature"):
+        run.check_mesh(cam)
+    arm = bpy.data.objects.new("Bare", bpy.data.armatures.new("Bare"))
+    bpy.context.scene.collection.objects.link(arm)
+    with pytest.raises(import_module(MODULE + ".engine.errors").LipSyncError, match="no pose assets"):
+        run.check_mesh(arm)
+
+
+def test_gltf_export_carries_the_bone_animation(bone_rig, tmp_path):
+    sc, rig = bone_rig
+    assert _generate(rig) == {"FINISHED"}
+    out = str(tmp_path / "rig.gltf")
+    props = {p.identifier for p in bpy.ops.export_scene.gltf.get_rna_type().properties}
+    kw = dict(filepath=out, export_format="GLTF_SEPARATE", export_animations=True, export_force_sampling=True,
+              export_frame_range=False, export_anim_slide_to_zero=False, export_optimize_animation_size=False)
+    if "export_animation_mode" in props:
+        kw["export_animation_mode"] = "ACTIONS"
+    assert bpy.ops.export_scene.gltf(**{k: v for k, v in kw.items() if k in props or k == "filepath"}) == \
+        {"FINISHED"}
+    doc, buffers = _read_gltf(out)
+    nodes = [n.get("name") for n in doc["nodes"]]
+    found = {}
+    action = rig.animation_data.action.name    # each action is an animation: the poses' too
+    assert action in [a.get("name") for a in doc.get("animations", [])]
+    for anim in [a for a in doc.get("animations", []) if a.get("name") == action]:
+        for ch in anim["channels"]:
+            sampler = anim["samplers"][ch["sampler"]]
+            found[(nodes[ch["target"]["node"]], ch["target"]["path"])] = (
+                _accessor(doc, buffers, sampler["input"])[:, 0], _accessor(doc, buffers, sampler["output"]))
+    # The jaw opens and shuts in the file over the line's frames, and rests before them (the action
+    # starts earlier, with the user's brow keys).
+    times, rot = found[("jaw", "rotation")]
+    before = times < START / FPS - 1e-3
+    assert before.any() and np.ptp(rot[before], axis=0).max() < 1e-4
+    assert np.ptp(rot[~before], axis=0).max() > 0.1
+    times, loc = found[("lip.B", "translation")]
+    assert np.ptp(loc, axis=0).max() > 0.02
