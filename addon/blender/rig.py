@@ -46,7 +46,7 @@ def _number(value) -> bool:
 
 def _own(prop: str) -> bool:
     """A custom property the add-on or Blender keeps for itself."""
-    return prop.startswith("_") or prop.startswith("emotive_lipsync")
+    return prop.startswith(("_", "emotive_lipsync"))
 
 
 def read_pose(action, bones) -> pose_blend.Pose:

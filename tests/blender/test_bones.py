@@ -47,6 +47,8 @@ BONES = {   # name: (head, tail, parent, rotation mode)
     "lips.L": ((0.3, -0.9, 0), (0.4, -0.9, 0), "root", "AXIS_ANGLE"),
     "brow": ((0, -0.9, 0.5), (0, -0.9, 0.6), "root", "QUATERNION"),
 }
+REST = {"location": (0, 0, 0), "scale": (1, 1, 1), "rotation_quaternion": (1, 0, 0, 0),
+        "rotation_axis_angle": (0, 0, 1, 0), "rotation_euler": (0, 0, 0)}
 USER_BROW = [(1.0, 0.0), (30.0, 0.04), (80.0, -0.02)]   # the user's own keys (frame, location y)
 
 
@@ -73,20 +75,10 @@ def _build_rig(props=False):
     bpy.ops.object.mode_set(mode="OBJECT")
     for name, (_h, _t, _p, mode) in BONES.items():
         rig.pose.bones[name].rotation_mode = mode
-    rig.animation_data_create()
     if not props:
-        for pose, bones in POSES.items():
-            rig.animation_data.action = bpy.data.actions.new(pose)
-            for bone, channels in bones.items():
-                pb = rig.pose.bones[bone]
-                for ch, value in channels.items():
-                    setattr(pb, ch, value)
-                    pb.keyframe_insert(ch, frame=1)
-                    setattr(pb, ch, (1, 1, 1) if ch == "scale" else
-                            (1, 0, 0, 0) if ch == "rotation_quaternion" else
-                            (0, 0, 1, 0) if ch == "rotation_axis_angle" else (0, 0, 0))
-            rig.animation_data.action.asset_mark()
+        _pose_assets(rig, POSES)
     # The user's own animation: the brow, in an action of the rig.
+    rig.animation_data_create()
     rig.animation_data.action = bpy.data.actions.new("RigAction")
     brow = rig.pose.bones["brow"]
     for frame, y in USER_BROW:
@@ -94,6 +86,22 @@ def _build_rig(props=False):
         brow.keyframe_insert("location", index=1, frame=frame)
     brow.location = (0, 0, 0)
     return sc, rig
+
+
+def _pose_assets(rig, poses):
+    """Each pose of ``poses`` (name -> bone -> {channel: value}) saved as a
+    pose asset: an action keyed on the bones, marked as an asset."""
+    ad = rig.animation_data or rig.animation_data_create()
+    for pose, bones in poses.items():
+        ad.action = bpy.data.actions.new(pose)
+        for bone, channels in bones.items():
+            pb = rig.pose.bones[bone]
+            for ch, value in channels.items():
+                setattr(pb, ch, value)
+                pb.keyframe_insert(ch, frame=1)
+                setattr(pb, ch, REST[ch])
+        ad.action.asset_mark()
+    ad.action = None
 
 
 def _brow_keys(rig):
@@ -120,6 +128,11 @@ def _gap(sc, rig, frame):
     sc.frame_set(frame)
     ev = rig.evaluated_get(bpy.context.evaluated_depsgraph_get())
     return float((ev.pose.bones["lip.T"].head - ev.pose.bones["lip.B"].head).length)
+
+
+def _frames_around(p):
+    """The frames of phone ``p``, a frame either side."""
+    return range(int(np.floor(START + p.start * FPS)) - 1, int(np.ceil(START + p.end * FPS)) + 2)
 
 
 def _phones():
@@ -158,7 +171,7 @@ def test_pose_assets_lip_sync_closes_and_opens(bone_rig):
     bilabials = [p for p in phones if p.phone in {"P", "B", "M"}]
     assert len(bilabials) >= 3
     for p in bilabials:
-        frames = range(int(np.floor(START + (p.start - 1 / FPS) * FPS)), int(np.ceil(START + (p.end + 1 / FPS) * FPS)) + 1)
+        frames = _frames_around(p)
         gaps = [_gap(sc, rig, f) for f in frames]
         assert min(gaps) < 0.01, f"lips apart ({min(gaps):.3f}) during /{p.phone}/ at {p.start:.2f} s"
     vowels = [p for p in phones if p.phone in OPEN_VOWELS]
@@ -169,7 +182,7 @@ def test_pose_assets_lip_sync_closes_and_opens(bone_rig):
 
 
 def test_replace_clear_and_undo(bone_rig):
-    sc, rig = bone_rig
+    _sc, rig = bone_rig
     before = _brow_keys(rig)
     assert _generate(rig, tolerance=0.0) == {"FINISHED"}
     compat = _mod("compat")
@@ -238,12 +251,13 @@ def test_not_a_target(extension):
 
 
 def test_gltf_export_carries_the_bone_animation(bone_rig, tmp_path):
-    sc, rig = bone_rig
+    _sc, rig = bone_rig
     assert _generate(rig) == {"FINISHED"}
     out = str(tmp_path / "rig.gltf")
     props = {p.identifier for p in bpy.ops.export_scene.gltf.get_rna_type().properties}
-    kw = dict(filepath=out, export_format="GLTF_SEPARATE", export_animations=True, export_force_sampling=True,
-              export_frame_range=False, export_anim_slide_to_zero=False, export_optimize_animation_size=False)
+    kw = {"filepath": out, "export_format": "GLTF_SEPARATE", "export_animations": True,
+          "export_force_sampling": True, "export_frame_range": False, "export_anim_slide_to_zero": False,
+          "export_optimize_animation_size": False}
     if "export_animation_mode" in props:
         kw["export_animation_mode"] = "ACTIONS"
     assert bpy.ops.export_scene.gltf(**{k: v for k, v in kw.items() if k in props or k == "filepath"}) == \
@@ -266,3 +280,80 @@ def test_gltf_export_carries_the_bone_animation(bone_rig, tmp_path):
     assert np.ptp(rot[~before], axis=0).max() > 0.1
     times, loc = found[("lip.B", "translation")]
     assert np.ptp(loc, axis=0).max() > 0.02
+
+
+# --- Rigify ---------------------------------------------------------------------------
+
+def _rigify_face():
+    """A Rigify face rig generated from the human metarig's head (the body
+    left out: it only slows the generation)."""
+    import addon_utils
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.fps, sc.render.fps_base = FPS, 1.0
+    if not addon_utils.check("rigify")[1]:
+        addon_utils.enable("rigify", default_set=True)
+    bpy.ops.object.armature_human_metarig_add()
+    meta = bpy.context.active_object
+    head = meta.data.bones["spine.006"]
+    keep = {head.name} | {b.name for b in head.children_recursive}
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in list(meta.data.edit_bones):
+        if eb.name not in keep:
+            meta.data.edit_bones.remove(eb)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.ops.pose.rigify_generate()
+    return sc, bpy.data.objects["rig"]
+
+
+def _rigify_poses(rig):
+    """Viseme poses on Rigify's face controls: ``MBP`` brings ``lip.T`` and
+    ``lip.B`` together halfway; the vowels open ``jaw_master`` (a
+    quaternion bone) and shape the corners ``lips.L``/``lips.R``."""
+    from mathutils import Euler, Vector
+
+    bones = rig.pose.bones
+    top, bottom = bones["lip.T"].bone, bones["lip.B"].bone
+    mid = (top.head_local + bottom.head_local) / 2
+
+    def towards(bone, target):   # a location moving the bone's head onto target (armature space)
+        return tuple(bone.matrix_local.to_3x3().inverted() @ (Vector(target) - bone.head_local))
+
+    def jaw(angle):
+        return tuple(Euler((angle, 0, 0)).to_quaternion())
+
+    def corners(dx):
+        return {"lips.L": {"location": towards(bones["lips.L"].bone, bones["lips.L"].bone.head_local
+                                               + Vector((dx, 0, 0)))},
+                "lips.R": {"location": towards(bones["lips.R"].bone, bones["lips.R"].bone.head_local
+                                               - Vector((dx, 0, 0)))}}
+
+    return {"MBP": {"lip.T": {"location": towards(top, mid)}, "lip.B": {"location": towards(bottom, mid)}},
+            "AI": {"jaw_master": {"rotation_quaternion": jaw(0.3)}, **corners(0.004)},
+            "O": {"jaw_master": {"rotation_quaternion": jaw(0.22)}, **corners(-0.008)},
+            "E": {"jaw_master": {"rotation_quaternion": jaw(0.12)}, **corners(0.008)},
+            "U": {"jaw_master": {"rotation_quaternion": jaw(0.08)}, **corners(-0.012)},
+            "etc": {"jaw_master": {"rotation_quaternion": jaw(0.1)}}}
+
+
+def test_rigify_face_rig(extension):
+    sc, rig = _rigify_face()
+    _pose_assets(rig, _rigify_poses(rig))
+    add_strip(sc, "line", BOB, frame=START)
+    rest = _gap(sc, rig, 1)
+    assert rest > 0.01
+    assert bpy.ops.emotive_lipsync.auto_map("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
+    assert _generate(rig) == {"FINISHED"}
+    keyed = {p for p, _i in _bone_fcurves(rig)}
+    assert {'pose.bones["jaw_master"].rotation_quaternion', 'pose.bones["lip.T"].location',
+            'pose.bones["lips.L"].location'} <= keyed
+    phones = _phones()
+    for p in [p for p in phones if p.phone in {"P", "B", "M"}]:
+        frames = _frames_around(p)
+        gap = min(_gap(sc, rig, f) for f in frames)
+        assert gap < 0.1 * rest, f"lips apart ({gap:.4f}, rest {rest:.4f}) during /{p.phone}/ at {p.start:.2f} s"
+    vowels = [p for p in phones if p.phone in OPEN_VOWELS]
+    opened = [max(_gap(sc, rig, f) for f in range(int(START + p.start * FPS), int(START + p.end * FPS) + 1))
+              for p in vowels]
+    assert sum(g > 1.5 * rest for g in opened) >= 0.75 * len(vowels), (rest, opened)
