@@ -38,12 +38,26 @@ VISEME_SETS = _set_items()
 _OV = {"LIBRARY_OVERRIDABLE"}
 
 
+def _drivable(self, _context, _edit_text):
+    """What a mapping row may name: the mesh's shape keys, the armature's
+    pose assets and number properties (the text field's search list)."""
+    obj = self.id_data
+    if obj.type == "ARMATURE":
+        from . import rig
+
+        return rig.names(obj)[1:]
+    key = obj.data.shape_keys if obj.type == "MESH" else None
+    return [kb.name for kb in key.key_blocks[1:]] if key is not None else []
+
+
 class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
-    """One viseme driving one shape key with a weight."""
+    """One viseme driving one shape key (on an armature: a pose asset or a
+    property) with a weight."""
 
     viseme: StringProperty(override=_OV, name="Viseme", description="Viseme of the mesh's viseme set")
-    shape_key: StringProperty(override=_OV, name="Shape Key", description="Shape key this viseme drives (on an "
-                                                                          "armature: a pose asset or a property)")
+    shape_key: StringProperty(override=_OV, name="Shape Key", search=_drivable,
+                              description="Shape key this viseme drives (on an armature: a pose asset or a "
+                                          "custom property, bone:property for a pose bone's)")
     weight: FloatProperty(name="Weight", description="How much of the viseme's curve goes into the shape key",
                           default=1.0, min=0.0, soft_max=1.0, max=2.0, override=_OV)
 

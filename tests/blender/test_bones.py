@@ -215,9 +215,14 @@ def test_custom_properties_are_keyed_like_shape_keys(extension):
         rig[name] = 0.0
     rig.pose.bones["jaw"]["viseme_E"] = 0.0
     rig["rig_id"] = "not a number"
+    rig["blink"] = 1.0                           # the user's own keys on another property
+    rig.keyframe_insert('["blink"]', frame=START + 5)
     assert bpy.ops.emotive_lipsync.auto_map("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
     mp = rig.emotive_lipsync.mapping_dict()
     assert mp["PP"] == {"viseme_PP": 1.0} and mp["E"] == {"jaw:viseme_E": 1.0}
+    # What the panel's mapping rows offer: the number properties, no text ones nor the add-on's own.
+    offered = _mod("props")._drivable(rig.emotive_lipsync.mapping[0], bpy.context, "")
+    assert sorted(offered) == ["blink", "jaw:viseme_E", "viseme_O", "viseme_PP", "viseme_aa", "viseme_sil"]
     assert _generate(rig) == {"FINISHED"}
     compat = _mod("compat")
     pp = compat.find_fcurve(rig, '["viseme_PP"]')
@@ -233,8 +238,11 @@ def test_custom_properties_are_keyed_like_shape_keys(extension):
         assert pp.evaluate(best) >= 0.8 * top, (p.phone, pp.evaluate(best))
         assert aa.evaluate(best) < 0.1
     assert max(aa.evaluate(f) for f in range(START, START + 40)) > 0.3
+    blink = compat.find_fcurve(rig, '["blink"]')
+    assert [tuple(k.co) for k in blink.keyframe_points] == [(START + 5, 1.0)]
     assert bpy.ops.emotive_lipsync.clear("EXEC_DEFAULT", mesh=rig.name) == {"FINISHED"}
-    assert _bone_fcurves(rig) == {('pose.bones["brow"].location', 1)}
+    assert _bone_fcurves(rig) == {('pose.bones["brow"].location', 1), ('["blink"]', 0)}
+    assert [tuple(k.co) for k in compat.find_fcurve(rig, '["blink"]').keyframe_points] == [(START + 5, 1.0)]
 
 
 def test_not_a_target(extension):
@@ -357,3 +365,34 @@ def test_rigify_face_rig(extension):
     opened = [max(_gap(sc, rig, f) for f in range(int(START + p.start * FPS), int(START + p.end * FPS) + 1))
               for p in vowels]
     assert sum(g > 1.5 * rest for g in opened) >= 0.75 * len(vowels), (rest, opened)
+
+
+# --- batch and key reduction -------------------------------------------------------------
+
+def test_command_line_manifest_and_generate_all_take_an_armature(bone_rig, tmp_path, capsys):
+    sc, rig = bone_rig
+    manifest = tmp_path / "lines.csv"
+    manifest.write_text(f"audio,mesh,frame,text\n{BOB},Rig,100,{BOB_TEXT}\n")
+    assert _mod("command").execute(["--manifest", str(manifest)]) == 0
+    assert "1 of 1 lip-synced, 0 problems" in capsys.readouterr().out
+    jaw = _mod("compat").find_fcurve(rig, 'pose.bones["jaw"].rotation_euler', 0)
+    assert jaw.keyframe_points[0].co[0] == 100
+    # Generate All: the strip named after the rig goes to it.
+    _mod("compat").all_strips(sc)[0].name = "Rig_line"
+    assert bpy.ops.emotive_lipsync.generate_all("EXEC_DEFAULT") == {"FINISHED"}
+    jaw = _mod("compat").find_fcurve(rig, 'pose.bones["jaw"].rotation_euler', 0)
+    assert jaw.keyframe_points[0].co[0] == START
+
+
+def test_bone_keys_are_reduced_within_tolerance(bone_rig):
+    _sc, rig = bone_rig
+    compat = _mod("compat")
+    assert _generate(rig, tolerance=0.0) == {"FINISHED"}
+    frames = np.arange(START, START + 40)
+    full = {(fc.data_path, fc.array_index): (len(fc.keyframe_points), [fc.evaluate(f) for f in frames])
+            for fc in compat.fcurves(rig) if fc.data_path.startswith('pose.bones["j')}
+    assert _generate(rig, tolerance=0.01) == {"FINISHED"}
+    for (path, i), (n, values) in full.items():
+        fc = compat.find_fcurve(rig, path, i)
+        assert len(fc.keyframe_points) < 0.8 * n, (path, i)
+        assert np.abs(np.array([fc.evaluate(f) for f in frames]) - values).max() <= 0.01 + 1e-6
