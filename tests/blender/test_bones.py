@@ -173,7 +173,7 @@ def test_pose_assets_lip_sync_closes_and_opens(bone_rig):
     for p in bilabials:
         frames = _frames_around(p)
         gaps = [_gap(sc, rig, f) for f in frames]
-        assert min(gaps) < 0.01, f"lips apart ({min(gaps):.3f}) during /{p.phone}/ at {p.start:.2f} s"
+        assert min(gaps) < 0.01 * REST_GAP, f"lips apart ({min(gaps):.3f}) during /{p.phone}/ at {p.start:.2f} s"
     vowels = [p for p in phones if p.phone in OPEN_VOWELS]
     assert len(vowels) >= 3
     opened = [max(_gap(sc, rig, f) for f in range(int(START + p.start * FPS), int(START + p.end * FPS) + 1))
@@ -360,7 +360,7 @@ def test_rigify_face_rig(extension):
     for p in [p for p in phones if p.phone in {"P", "B", "M"}]:
         frames = _frames_around(p)
         gap = min(_gap(sc, rig, f) for f in frames)
-        assert gap < 0.1 * rest, f"lips apart ({gap:.4f}, rest {rest:.4f}) during /{p.phone}/ at {p.start:.2f} s"
+        assert gap < 0.01 * rest, f"lips apart ({gap:.4f}, rest {rest:.4f}) during /{p.phone}/ at {p.start:.2f} s"
     vowels = [p for p in phones if p.phone in OPEN_VOWELS]
     opened = [max(_gap(sc, rig, f) for f in range(int(START + p.start * FPS), int(START + p.end * FPS) + 1))
               for p in vowels]
