@@ -78,7 +78,8 @@ def problems(context) -> list[str]:
                     found = _detected(obj)
                 except LipSyncError:
                     found = None
-                    out.append(f"The shape keys of {obj.name} follow no known naming convention: map them below, "
+                    out.append(f"The {run.driven_words(obj)} of {obj.name} follow no known naming convention: "
+                               "map them below, "
                                "or pick their viseme set")
                 missing = mapping_mod.unmapped(visemes.load(found.convention.viseme_set), found.mapping) \
                     if found is not None else []

@@ -134,20 +134,22 @@ def _linked_from(idb) -> str | None:
 
 
 def check_editable(obj) -> None:
-    """A clear error if the mesh's shape-key animation cannot be written
-    here: the object, its mesh, its shape keys or their action linked from a
-    library (the keys would be lost on reload, or refused).  An editable
-    library override of the object and its mesh works."""
-    key = obj.data.shape_keys if obj.type == "MESH" else obj
-    action = key.animation_data.action if key is not None and key.animation_data is not None else None
-    for what, idb in ((f"object {obj.name!r}", obj), (f"mesh data {obj.data.name!r}", obj.data),
-                      (f"shape keys {key.name!r}" if key is not None and key is not obj else "",
-                       key if key is not obj else None),
+    """A clear error if the target's animation cannot be written here: the
+    object, its mesh, its shape keys or their action linked from a library
+    (the keys would be lost on reload, or refused).  An editable library
+    override of the object and its mesh works.  An armature's keys are on
+    the object (its pose, its properties), so its armature data may stay
+    linked."""
+    rig = obj.type == "ARMATURE"
+    key = None if rig else obj.data.shape_keys
+    owner = obj if rig else key
+    action = owner.animation_data.action if owner is not None and owner.animation_data is not None else None
+    for what, idb in ((f"object {obj.name!r}", obj), ("", None) if rig else (f"mesh data {obj.data.name!r}", obj.data),
+                      (f"shape keys {key.name!r}" if key is not None else "", key),
                       (f"action {action.name!r}" if action is not None else "", action)):
         why = _linked_from(idb) if idb is not None else None
         if why:
-            fix = ("assign a local action to the " + ("armature" if obj.type == "ARMATURE" else "shape keys")
-                   if idb is action else
+            fix = (f"assign a local action to the {'armature' if rig else 'shape keys'}" if idb is action else
                    "make a library override of it and its mesh (Object > Library Override > Make, "
                    "then make the mesh editable) or make it local (Object > Relations > Make Local)")
             raise LipSyncError(f"{obj.name!r} cannot be animated: its {what} is {why}; {fix}. Nothing was changed")
@@ -223,7 +225,7 @@ def detect(obj, viseme_set: str | None = None, convention: str | None = None) ->
         prefixes += tuple(pb.name for pb in (obj.pose.bones if obj.pose is not None else []) if pb.keys())
     found = conventions.detect(names, candidates, sets, prefixes, chosen)
     if found is None:
-        what = _what(obj)
+        what = driven_words(obj)
         if convention:
             raise LipSyncError(f"none of the {what} of {obj.name!r} follow the convention {convention!r}")
         if chosen:
@@ -235,7 +237,8 @@ def detect(obj, viseme_set: str | None = None, convention: str | None = None) ->
     return found
 
 
-def _what(obj) -> str:
+def driven_words(obj) -> str:
+    """What a target's mapping names, in words: shape keys, or pose assets and properties."""
     return "pose assets and properties" if obj.type == "ARMATURE" else "shape keys"
 
 
