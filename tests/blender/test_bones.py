@@ -295,6 +295,17 @@ def test_not_a_target(extension):
         run.check_mesh(arm)
 
 
+def test_a_pose_asset_playing_on_the_rig_is_not_keyed_into(bone_rig):
+    _sc, rig = bone_rig
+    mbp = bpy.data.actions["MBP"]
+    keys = len(_mod("compat").action_fcurves(mbp))
+    rig.animation_data.action = mbp
+    with pytest.raises(RuntimeError, match="plays the pose asset 'MBP'"):
+        _generate(rig)
+    assert len(_mod("compat").action_fcurves(mbp)) == keys
+    assert not _mod("keying").lipsynced(rig)
+
+
 def test_gltf_export_carries_the_bone_animation(bone_rig, tmp_path):
     _sc, rig = bone_rig
     assert _generate(rig) == {"FINISHED"}
