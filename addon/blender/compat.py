@@ -151,22 +151,36 @@ def find_fcurve(id_data, data_path: str, index: int = 0):
     return bag.fcurves.find(data_path, index=index) if bag is not None else None
 
 
-def ensure_fcurve(id_data, data_path: str, action_name: str, group: str):
-    """The F-curve for ``data_path``, creating an action, a slot and the
-    curve as needed.  An action the user already assigned is reused."""
+def ensure_fcurve(id_data, data_path: str, action_name: str, group: str, index: int = 0):
+    """The F-curve for ``data_path`` (component ``index``), creating an
+    action, a slot and the curve as needed.  An action the user already
+    assigned is reused."""
     ad = id_data.animation_data or id_data.animation_data_create()
     if ad.action is None:
         ad.action = bpy.data.actions.new(action_name)
     bag = _channelbag(id_data, create=True)
-    fc = bag.fcurves.find(data_path, index=0)
+    fc = bag.fcurves.find(data_path, index=index)
     if fc is None:
         if SLOTTED_ACTIONS:
-            fc = bag.fcurves.new(data_path, index=0)
+            fc = bag.fcurves.new(data_path, index=index)
             grp = bag.groups.get(group) or bag.groups.new(group)
             fc.group = grp
         else:
-            fc = bag.fcurves.new(data_path, index=0, action_group=group)
+            fc = bag.fcurves.new(data_path, index=index, action_group=group)
     return fc
+
+
+def action_fcurves(action) -> list:
+    """Every F-curve an action holds (a pose asset's channels), whatever its
+    slots and layers."""
+    if not SLOTTED_ACTIONS:
+        return list(action.fcurves)
+    out = []
+    for layer in action.layers:
+        for strip in layer.strips:
+            for bag in strip.channelbags:
+                out.extend(bag.fcurves)
+    return out
 
 
 def remove_fcurve(id_data, fc) -> None:

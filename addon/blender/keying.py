@@ -1,4 +1,5 @@
-"""Shape-key F-curves written in bulk, without touching anything else.
+"""Shape-key F-curves (and a bone rig's channels) written in bulk, without
+touching anything else.
 
 Only the frames of the lip-synced range are replaced on the shape keys the
 mapping drives; keys outside that range, other F-curves, drivers and the
@@ -154,6 +155,19 @@ def _hold_to_tolerance(fc, first: int, y: np.ndarray, idx: np.ndarray, tolerance
     return idx
 
 
+def _write_curve(id_data, path: str, index: int, column: np.ndarray, first_frame: int, tolerance: float,
+                 action_name: str) -> tuple[int, int]:
+    """Key one F-curve of ``id_data`` from ``first_frame`` (see :func:`write`):
+    (keys written, keys replaced)."""
+    last = first_frame + len(column) - 1
+    fc = compat.ensure_fcurve(id_data, path, action_name, GROUP, index)
+    idx = key_reduction.reduce(column, tolerance)
+    replaced = replace_range(fc, first_frame, last, first_frame + idx, column[idx], linear=tolerance <= 0)
+    if tolerance > 0:
+        idx = _hold_to_tolerance(fc, first_frame, column, idx, tolerance)
+    return len(idx), replaced
+
+
 def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tolerance: float = 0.0,
           label: str = "") -> dict:
     """Key ``values`` (frames x shape keys) on ``obj`` from ``first_frame``.
@@ -175,12 +189,9 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
             created += 1
             if name not in rec["created"]:
                 rec["created"].append(name)
-        fc = compat.ensure_fcurve(key, path, f"{obj.name}_LipSync", GROUP)
-        idx = key_reduction.reduce(values[:, j], tolerance)
-        replaced += replace_range(fc, first_frame, last, first_frame + idx, values[idx, j], linear=tolerance <= 0)
-        if tolerance > 0:
-            idx = _hold_to_tolerance(fc, first_frame, values[:, j], idx, tolerance)
-        written += len(idx)
+        w, r = _write_curve(key, path, 0, values[:, j], first_frame, tolerance, f"{obj.name}_LipSync")
+        written += w
+        replaced += r
         spans = rec["ranges"].setdefault(name, [])
         if [first_frame, last] not in spans:
             spans.append([first_frame, last])
@@ -189,6 +200,81 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
     key[RECORD] = json.dumps(rec)
     return {"keys": written, "replaced": replaced, "fcurves_created": created,
             "first_frame": first_frame, "last_frame": last, "shape_keys": len(shape_keys)}
+
+
+# --- bone rigs ------------------------------------------------------------------
+# An armature's record is kept on the object (its ``emotive_lipsync`` property
+# holds the object's settings), its channels named "index:data path".
+
+RIG_RECORD = "emotive_lipsync_keys"
+
+
+def _rig_record(obj) -> dict:
+    try:
+        rec = json.loads(obj.get(RIG_RECORD, "{}"))
+    except (TypeError, ValueError):
+        rec = {}
+    rec.setdefault("ranges", {})
+    rec.setdefault("created", [])
+    return rec
+
+
+def _channel(name: str) -> tuple[str, int]:
+    index, path = name.split(":", 1)
+    return path, int(index)
+
+
+def write_rig(obj, channels: list[tuple[str, int]], values: np.ndarray, first_frame: int, tolerance: float = 0.0,
+              label: str = "") -> dict:
+    """Key ``values`` (frames x channels) on an armature's ``channels`` (data
+    path, index) from ``first_frame``, as :func:`write` keys shape keys.
+    Channels an earlier run keyed over these frames and this one does not
+    (a pose no longer mapped) lose those keys."""
+    n = values.shape[0]
+    last = first_frame + n - 1
+    rec = _rig_record(obj)
+    written = replaced = created = 0
+    names = [f"{index}:{path}" for path, index in channels]
+    for name, spans in rec["ranges"].items():
+        if name in names:
+            continue
+        fc = compat.find_fcurve(obj, *_channel(name))
+        for a, b in spans if fc is not None else []:
+            lo, hi = max(a, first_frame), min(b, last)
+            if lo <= hi:
+                replaced += replace_range(fc, lo, hi)
+    for j, (name, (path, index)) in enumerate(zip(names, channels)):
+        if compat.find_fcurve(obj, path, index) is None:
+            created += 1
+            if name not in rec["created"]:
+                rec["created"].append(name)
+        w, r = _write_curve(obj, path, index, values[:, j], first_frame, tolerance, f"{obj.name}_LipSync")
+        written += w
+        replaced += r
+        spans = rec["ranges"].setdefault(name, [])
+        if [first_frame, last] not in spans:
+            spans.append([first_frame, last])
+    rec.setdefault("runs", []).append({"label": label, "first": first_frame, "last": last})
+    rec["runs"] = rec["runs"][-50:]
+    obj[RIG_RECORD] = json.dumps(rec)
+    return {"keys": written, "replaced": replaced, "fcurves_created": created,
+            "first_frame": first_frame, "last_frame": last, "shape_keys": len(channels)}
+
+
+def _clear_rig(obj) -> dict:
+    rec = _rig_record(obj)
+    removed = dropped = 0
+    for name, spans in rec["ranges"].items():
+        fc = compat.find_fcurve(obj, *_channel(name))
+        if fc is None:
+            continue
+        for first, last in spans:
+            removed += replace_range(fc, first, last)
+        if name in rec["created"] and len(fc.keyframe_points) == 0 and not fc.modifiers:
+            compat.remove_fcurve(obj, fc)
+            dropped += 1
+    del obj[RIG_RECORD]
+    return {"keys": removed, "fcurves_removed": dropped}
 
 
 def user_animated(obj, shape_keys: list[str]) -> list[str]:
@@ -238,6 +324,8 @@ def forget(obj, shape_keys: list[str], first: int, last: int) -> int:
 def clear(obj) -> dict:
     """Remove the keys the add-on wrote on ``obj``.  F-curves it created and
     that hold nothing else go too; the user's keys stay."""
+    if obj.type == "ARMATURE":
+        return _clear_rig(obj) if RIG_RECORD in obj else {"keys": 0, "fcurves_removed": 0}
     key = obj.data.shape_keys if obj.type == "MESH" else None
     if key is None or RECORD not in key:
         return {"keys": 0, "fcurves_removed": 0}
@@ -257,5 +345,7 @@ def clear(obj) -> dict:
 
 
 def lipsynced(obj) -> bool:
+    if obj is not None and obj.type == "ARMATURE":
+        return RIG_RECORD in obj
     key = getattr(obj.data, "shape_keys", None) if obj is not None and obj.type == "MESH" else None
     return key is not None and RECORD in key

@@ -43,6 +43,8 @@ def _tracks(obj, first: int, n_frames: int, fps: float):
 def collect(scene, obj, strip_names: list[str] | None = None):
     """(clip label, Audio, transcript, times, tracks, channels) per strip."""
     run.check_mesh(obj)
+    if obj.type != "MESH":
+        raise LipSyncError(f"{obj.name!r} is an armature: learning reads a mesh's shape-key animation")
     strips = compat.sound_strips(scene)
     if strip_names:
         chosen = [sources.strip_by_name(scene, n) for n in strip_names]

@@ -22,10 +22,11 @@ from . import compat, jobs, keying, run, sources
 
 
 def face(context, name: str = ""):
-    """The face mesh an operator works on: the object named ``name``, else
-    the panel's Face, else the active object; checked to be a mesh with
-    shape keys the add-on may animate (else a :class:`LipSyncError` says
-    what is wrong).  The panel calls it to show that message."""
+    """The face an operator works on: the object named ``name``, else the
+    panel's Face, else the active object; checked to be a mesh with shape
+    keys, or an armature with pose assets or properties, the add-on may
+    animate (else a :class:`LipSyncError` says what is wrong).  The panel
+    calls it to show that message."""
     if name:
         obj = bpy.data.objects.get(name)
         if obj is None:
@@ -191,7 +192,7 @@ property, else the mesh its name starts with)"""
 
 
 def _shape_key_names(obj) -> list[str]:
-    key = obj.data.shape_keys
+    key = obj.data.shape_keys if obj.type == "MESH" else None
     return [kb.name for kb in key.key_blocks[1:]] if key is not None else []
 
 
@@ -210,7 +211,8 @@ class LIPSYNC_OT_clear(bpy.types.Operator):
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         # The character's other meshes keyed with the face (teeth ...) go too.
-        targets = [o for o in [obj] + run.companions(obj, _shape_key_names(obj)) if keying.lipsynced(o)]
+        also = run.companions(obj, _shape_key_names(obj)) if obj.type == "MESH" else []
+        targets = [o for o in [obj] + also if keying.lipsynced(o)]
         if not targets:
             self.report({"WARNING"}, f"{obj.name!r} has no lip sync made by this add-on")
             return {"CANCELLED"}

@@ -34,7 +34,7 @@ def _detected(obj):
     """The convention Generate would pick for ``obj`` (kept while its shape
     keys and settings stay the same: the panel redraws often)."""
     st = obj.emotive_lipsync
-    sig = (obj.name, tuple(k.name for k in obj.data.shape_keys.key_blocks), st.viseme_set, st.viseme_set_file)
+    sig = (obj.name, tuple(run.check_mesh(obj)), st.viseme_set, st.viseme_set_file)
     if sig not in _detect_cache:
         if len(_detect_cache) > 64:
             _detect_cache.clear()
@@ -53,7 +53,7 @@ def _convention_text(obj) -> str:
     ost = obj.emotive_lipsync
     if len(ost.mapping):
         return ost.convention or "Mapped by hand"
-    if obj.data.shape_keys is None or len(obj.data.shape_keys.key_blocks) < 2:
+    if obj.type == "MESH" and (obj.data.shape_keys is None or len(obj.data.shape_keys.key_blocks) < 2):
         return ""
     try:
         return _detected(obj).convention.label + " (detected)"
@@ -78,7 +78,8 @@ def problems(context) -> list[str]:
                     found = _detected(obj)
                 except LipSyncError:
                     found = None
-                    out.append(f"The shape keys of {obj.name} follow no known naming convention: map them below, "
+                    out.append(f"The {run.driven_words(obj)} of {obj.name} follow no known naming convention: "
+                               "map them below, "
                                "or pick their viseme set")
                 missing = mapping_mod.unmapped(visemes.load(found.convention.viseme_set), found.mapping) \
                     if found is not None else []
@@ -206,7 +207,7 @@ class LIPSYNC_PT_shapes(_Panel, bpy.types.Panel):
             layout.prop(ost, "viseme_set_file")
         if len(ost.mapping) and ost.convention:
             layout.label(text=f"Convention: {ost.convention}", icon="CHECKMARK")
-        elif not len(ost.mapping) and obj.data.shape_keys is not None:
+        elif not len(ost.mapping) and (obj.type == "ARMATURE" or obj.data.shape_keys is not None):
             try:
                 found = _detected(obj)
                 layout.label(text=f"Detected: {found.describe(visemes.load(found.convention.viseme_set))}",

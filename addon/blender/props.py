@@ -38,11 +38,26 @@ VISEME_SETS = _set_items()
 _OV = {"LIBRARY_OVERRIDABLE"}
 
 
+def _drivable(self, _context, _edit_text):
+    """What a mapping row may name: the mesh's shape keys, the armature's
+    pose assets and number properties (the text field's search list)."""
+    obj = self.id_data
+    if obj.type == "ARMATURE":
+        from . import rig
+
+        return rig.names(obj)[1:]
+    key = obj.data.shape_keys if obj.type == "MESH" else None
+    return [kb.name for kb in key.key_blocks[1:]] if key is not None else []
+
+
 class LIPSYNC_PG_mapping_item(bpy.types.PropertyGroup):
-    """One viseme driving one shape key with a weight."""
+    """One viseme driving one shape key (on an armature: a pose asset or a
+    property) with a weight."""
 
     viseme: StringProperty(override=_OV, name="Viseme", description="Viseme of the mesh's viseme set")
-    shape_key: StringProperty(override=_OV, name="Shape Key", description="Shape key this viseme drives")
+    shape_key: StringProperty(override=_OV, name="Shape Key", search=_drivable,
+                              description="Shape key this viseme drives (on an armature: a pose asset or a "
+                                          "custom property, bone:property for a pose bone's)")
     weight: FloatProperty(name="Weight", description="How much of the viseme's curve goes into the shape key",
                           default=1.0, min=0.0, soft_max=1.0, max=2.0, override=_OV)
 
@@ -117,7 +132,7 @@ def _number_or_word(token: str):
 
 
 def _target_poll(_self, obj):
-    return obj.type == "MESH"
+    return obj.type in ("MESH", "ARMATURE")
 
 
 class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
@@ -136,7 +151,8 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                              description="Language of the transcript: an ISO 639-1 or 639-3 code or a BCP-47 tag "
                                          "(de, deu, pt-BR, zh, ja ...); empty: English")
     target: PointerProperty(name="Face", type=bpy.types.Object, poll=_target_poll,
-                            description="Mesh whose shape keys are animated (empty: the active object)")
+                            description="Mesh whose shape keys, or armature whose pose assets and properties, "
+                                        "are animated (empty: the active object)")
     emotion: StringProperty(name="Emotion", default="neutral",
                             description="Emotion preset the numbers below were loaded from")
     preset_values: CollectionProperty(type=LIPSYNC_PG_preset_value)

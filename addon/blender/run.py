@@ -22,7 +22,7 @@ from ..engine.alignment import AlignSettings
 from ..engine.language import resolve_language
 from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
-from . import compat, emotion_markers, keying, userdata
+from . import compat, emotion_markers, keying, rig, userdata
 from .sources import Clip, scene_fps
 
 
@@ -89,6 +89,7 @@ class Summary:
     unheard_words: int = 0          # transcript words the take does not hold (left unspoken)
     unscripted_seconds: float = 0.0  # speech the transcript leaves out, animated from recognition
     recognized: bool = False        # no transcript: every word was recognised
+    driven: str = "shape keys"                               # what ``shape_keys`` counts
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
@@ -107,18 +108,23 @@ class Summary:
             face += f"; no shape key shows {', '.join(self.no_key)} (left out)"
         if self.kept:
             face += f"; kept your animation on {', '.join(self.kept)} (not keyed)"
-        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} shape keys{also}, "
+        return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} {self.driven}{also}, "
                 f"frames {self.first_frame}-{self.last_frame}{again}{est}{face}, in {self.seconds:.1f} s"
                 + "".join(f"; warning: {w}" for w in self.warnings))
 
 
 def check_mesh(obj) -> list[str]:
-    """The mesh's shape-key names, or a clear error."""
+    """The target's names, or a clear error: a mesh's shape keys (its Basis
+    first), an armature's pose assets and properties (:func:`.rig.names`)."""
     if obj is None:
         raise LipSyncError("no face mesh: pick one in the Lip Sync panel, or make it the active object")
+    if obj.type == "ARMATURE":
+        names = rig.check(obj)
+        check_editable(obj)
+        return names
     if obj.type != "MESH":
-        raise LipSyncError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh: lip sync animates a mesh's "
-                           "shape keys")
+        raise LipSyncError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh or an armature: lip sync animates a "
+                           "mesh's shape keys or an armature's pose assets and properties")
     key = obj.data.shape_keys
     if key is None or len(key.key_blocks) < 2:
         raise LipSyncError(f"mesh {obj.name!r} has no shape keys to animate: add a Basis key and the mouth "
@@ -140,18 +146,22 @@ def _linked_from(idb) -> str | None:
 
 
 def check_editable(obj) -> None:
-    """A clear error if the mesh's shape-key animation cannot be written
-    here: the object, its mesh, its shape keys or their action linked from a
-    library (the keys would be lost on reload, or refused).  An editable
-    library override of the object and its mesh works."""
-    key = obj.data.shape_keys
-    action = key.animation_data.action if key is not None and key.animation_data is not None else None
-    for what, idb in ((f"object {obj.name!r}", obj), (f"mesh data {obj.data.name!r}", obj.data),
+    """A clear error if the target's animation cannot be written here: the
+    object, its mesh, its shape keys or their action linked from a library
+    (the keys would be lost on reload, or refused).  An editable library
+    override of the object and its mesh works.  An armature's keys are on
+    the object (its pose, its properties), so its armature data may stay
+    linked."""
+    rig = obj.type == "ARMATURE"
+    key = None if rig else obj.data.shape_keys
+    owner = obj if rig else key
+    action = owner.animation_data.action if owner is not None and owner.animation_data is not None else None
+    for what, idb in ((f"object {obj.name!r}", obj), ("", None) if rig else (f"mesh data {obj.data.name!r}", obj.data),
                       (f"shape keys {key.name!r}" if key is not None else "", key),
                       (f"action {action.name!r}" if action is not None else "", action)):
         why = _linked_from(idb) if idb is not None else None
         if why:
-            fix = ("assign a local action to the shape keys" if idb is action else
+            fix = (f"assign a local action to the {'armature' if rig else 'shape keys'}" if idb is action else
                    "make a library override of it and its mesh (Object > Library Override > Make, "
                    "then make the mesh editable) or make it local (Object > Relations > Make Local)")
             raise LipSyncError(f"{obj.name!r} cannot be animated: its {what} is {why}; {fix}. Nothing was changed")
@@ -222,17 +232,26 @@ def detect(obj, viseme_set: str | None = None, convention: str | None = None) ->
         if not candidates:
             raise LipSyncError(f"{convention!r} is not a naming convention: {', '.join(known)}")
         chosen = None
-    found = conventions.detect(names, candidates, sets, (obj.name, obj.data.name), chosen)
+    prefixes = (obj.name, obj.data.name)
+    if obj.type == "ARMATURE":   # a pose bone's property is named "bone:property"
+        prefixes += tuple(pb.name for pb in (obj.pose.bones if obj.pose is not None else []) if pb.keys())
+    found = conventions.detect(names, candidates, sets, prefixes, chosen)
     if found is None:
+        what = driven_words(obj)
         if convention:
-            raise LipSyncError(f"none of the shape keys of {obj.name!r} follow the convention {convention!r}")
+            raise LipSyncError(f"none of the {what} of {obj.name!r} follow the convention {convention!r}")
         if chosen:
-            raise LipSyncError(f"none of the shape keys of {obj.name!r} match the viseme set {chosen!r}: map them "
+            raise LipSyncError(f"none of the {what} of {obj.name!r} match the viseme set {chosen!r}: map them "
                                "in the Lip Sync panel, or set Viseme Set to Automatic")
-        raise LipSyncError(f"none of the shape keys of {obj.name!r} follow a naming convention this add-on knows "
+        raise LipSyncError(f"none of the {what} of {obj.name!r} follow a naming convention this add-on knows "
                            f"({', '.join(c.label for c in candidates)}): map them in the Lip Sync panel's "
                            "Visemes and Shape Keys list, or add a convention file")
     return found
+
+
+def driven_words(obj) -> str:
+    """What a target's mapping names, in words: shape keys, or pose assets and properties."""
+    return "pose assets and properties" if obj.type == "ARMATURE" else "shape keys"
 
 
 def apply(obj, found: conventions.Match) -> None:
@@ -262,7 +281,9 @@ def mesh_mapping(obj) -> tuple[visemes.VisemeSet, dict[str, dict[str, float]], c
         mp = st.mapping_dict()
     missing = sorted({k for mix in mp.values() for k in mix} - set(names))
     if missing:
-        raise LipSyncError(f"mesh {obj.name!r} has no shape key named {', '.join(map(repr, missing))}: "
+        what = "armature {!r} has no pose asset or property" if obj.type == "ARMATURE" else \
+            "mesh {!r} has no shape key"
+        raise LipSyncError(f"{what.format(obj.name)} named {', '.join(map(repr, missing))}: "
                            "fix the mapping in the Lip Sync panel or press Auto-Map")
     return mesh_viseme_set(obj), mp, conventions.Closure.from_json(st.closure_rule)
 
@@ -318,11 +339,14 @@ def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
-    face = conventions.expression_match(check_mesh(obj), all_conventions(), (obj.name, obj.data.name),
-                                        prefer=obj.emotive_lipsync.convention)
+    if obj.type == "ARMATURE":   # the expression layer drives shape keys only
+        face = conventions.ExpressionMatch({})
+    else:
+        face = conventions.expression_match(check_mesh(obj), all_conventions(), (obj.name, obj.data.name),
+                                            prefer=obj.emotive_lipsync.convention)
     driven = {k for mix in mp.values() for k in mix} | set(closure.relative) | \
         {k for mix in face.mapping.values() for k in mix}
-    also = [o.name for o in companions(obj, driven)] if options.whole_character else []
+    also = [o.name for o in companions(obj, driven)] if options.whole_character and obj.type == "MESH" else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
     return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
@@ -348,6 +372,8 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
     names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
+    if obj.type == "ARMATURE":
+        return _key_rig(obj, plan, analysis, names, values, t0)
     speech = list(names)
     face = _expression_keys(obj, plan, result, names, len(values))
     ex_values = face["values"]
@@ -387,12 +413,48 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     words = result.alignment.words
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
                    last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
-                   replaced=counts["replaced"], estimated_words=sum(1 for w in words if w.estimated),
-                   words=len(words), timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
+                   replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
                    warnings=list(result.warnings), expression=face["units"], expression_keys=face["names"],
-                   no_key=face["no_key"], kept=face["kept"], unheard_words=sum(1 for w in words if not w.spoken),
-                   unscripted_seconds=sum(b - a for a, b, _ in result.alignment.unscripted),
-                   recognized=bool(words) and all(w.recognized for w in words))
+                   no_key=face["no_key"], kept=face["kept"], **_heard(words, result))
+
+
+def _heard(words, result: Result) -> dict:
+    """The Summary's account of the words: how many, placed by estimate, not
+    heard, recognised without a transcript, and the unscripted seconds."""
+    return {"words": len(words), "estimated_words": sum(1 for w in words if w.estimated),
+            "unheard_words": sum(1 for w in words if not w.spoken),
+            "unscripted_seconds": sum(b - a for a, b, _ in result.alignment.unscripted),
+            "recognized": bool(words) and all(w.recognized for w in words)}
+
+
+def closing_names(vset: visemes.VisemeSet, mapping: dict[str, dict[str, float]]) -> list[str]:
+    """The names the visemes of /p b m/ drive (the poses that shut the lips)."""
+    out = []
+    for phone in ("P", "B", "M"):
+        for v in vset.phonemes.get(phone, []):
+            out += [k for k in mapping.get(v, {}) if k not in out]
+    return out
+
+
+def _key_rig(obj, plan: Plan, analysis: Analysis, names: list[str], values, t0: float) -> Summary:
+    """:func:`key` on an armature: the mapped poses blended onto its bones,
+    its mapped properties keyed as shape keys are."""
+    result, clip = analysis.result, plan.clip
+    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
+    gone = sorted(set(names) - set(check_mesh(obj)))
+    if gone:
+        raise LipSyncError(f"armature {obj.name!r} no longer has pose asset or property "
+                           f"{', '.join(map(repr, gone))}; nothing was keyed")
+    paths, curves = rig.channels(obj, names, values, closing_names(result.viseme_set, plan.mapping),
+                                 result.closure)
+    counts = keying.write_rig(obj, paths, curves, clip.first_frame, plan.options.tolerance, clip.label)
+    t1 = time.perf_counter()
+    words = result.alignment.words
+    return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
+                   last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
+                   replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0},
+                   warnings=list(result.warnings),
+                   driven=f"poses and properties ({len(paths)} bone and property channels)", **_heard(words, result))
 
 
 def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames: int) -> dict:

@@ -192,7 +192,7 @@ def strip_language(strip) -> str | None:
 
 
 def strip_target(strip, fallback=None):
-    """The mesh a strip lip-syncs in batch runs.
+    """The mesh (or armature) a strip lip-syncs in batch runs.
 
     1. the object named by the strip's ``lipsync_target`` custom property;
     2. else the mesh whose name the strip's name starts with, followed by the
@@ -203,12 +203,13 @@ def strip_target(strip, fallback=None):
     name = strip.get(STRIP_TARGET)
     if name:
         obj = bpy.data.objects.get(name)
-        if obj is None or obj.type != "MESH":
-            raise LipSyncError(f"strip {strip.name!r}: its lipsync_target names {name!r}, which is not a mesh")
+        if obj is None or obj.type not in ("MESH", "ARMATURE"):
+            raise LipSyncError(f"strip {strip.name!r}: its lipsync_target names {name!r}, which is not a mesh or "
+                               "an armature")
         return obj
     best = None
     for obj in bpy.data.objects:
-        if obj.type != "MESH" or not obj.name:
+        if obj.type not in ("MESH", "ARMATURE") or not obj.name:
             continue
         if re.match(re.escape(obj.name) + r"($|[\s._\-])", strip.name):
             if best is None or len(obj.name) > len(best.name):
