@@ -409,6 +409,9 @@ def rigify():
         bpy.utils.unregister_class(getattr(bpy.types, name))
 
 
+@pytest.mark.skipif(bpy.app.version < (4, 4, 0),
+                    reason="PyPI's bpy 4.2 corrupts its memory generating a Rigify rig: a later glTF export in the "
+                           "same process, or its exit, crashes now and then (the hand-made rig's tests run here)")
 def test_rigify_face_rig(extension, rigify):
     sc, rig = _rigify_face()
     poses = _rigify_poses(rig)
