@@ -428,7 +428,9 @@ def _run(client, address, lines, defaults, deadline, timeout) -> Iterator:
         fut, res = next(finished)
         ln = by_key.pop(fut.key)
         watch.progress()
-        if fut.status != "finished":   # KilledWorker (the line took down every worker it ran on), cancelled
+        # A line's answer is the dict run_line returned, even when the worker that
+        # held it has gone since (the future then no longer reads "finished").
+        if not isinstance(res, dict):   # KilledWorker (the line took down every worker it ran on), cancelled
             exc = res[1] if isinstance(res, tuple) else res
             if client.status != "running":
                 raise LipSyncError(f"lost the Dask scheduler at {address}; {_not_done(len(by_key) + 1)}")
