@@ -24,34 +24,9 @@ import time
 
 import numpy as np
 
-from common import reference_phones
+from common import match, reference_phones
 from addon.engine.alignment import align_audio, align_file
 from addon.engine.importers import read_textgrid
-
-
-def match(hyp: list[str], ref: list[str]) -> list[tuple[int, int]]:
-    """Pairs (i, j) of equal phones on a minimum edit path."""
-    n, m = len(hyp), len(ref)
-    cost = np.zeros((n + 1, m + 1))
-    cost[:, 0] = np.arange(n + 1)
-    cost[0, :] = np.arange(m + 1)
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            sub = 0 if hyp[i - 1] == ref[j - 1] else 1
-            cost[i, j] = min(cost[i - 1, j] + 1, cost[i, j - 1] + 1, cost[i - 1, j - 1] + sub)
-    pairs = []
-    i, j = n, m
-    while i and j:
-        sub = 0 if hyp[i - 1] == ref[j - 1] else 1
-        if cost[i, j] == cost[i - 1, j - 1] + sub:
-            if sub == 0:
-                pairs.append((i - 1, j - 1))
-            i, j = i - 1, j - 1
-        elif cost[i, j] == cost[i - 1, j] + 1:
-            i -= 1
-        else:
-            j -= 1
-    return pairs[::-1]
 
 
 def joined_row(repeat: int = 1) -> None:

@@ -35,8 +35,7 @@ import time
 
 import numpy as np
 
-from common import reference_phones
-from alignment_accuracy import match
+from common import match, reference_phones
 from addon.engine import audio as audio_mod
 from addon.engine.importers import read_textgrid
 from addon.engine.language.phonemes import VOWELS

@@ -62,8 +62,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import reference_phones, write_wav
-from alignment_accuracy import match
+from common import match, reference_phones, write_wav
 from addon.engine import audio as audio_mod
 from addon.engine import pipeline
 from addon.engine.importers import read_textgrid

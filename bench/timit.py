@@ -39,7 +39,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from common import need_data
+from common import match, need_data
 from addon.engine import audio as audio_mod
 from addon.engine.alignment import align_audio
 from addon.engine.language.phonemes import VOWELS
@@ -81,29 +81,9 @@ def hand_phones(phn: Path) -> list[SimpleNamespace]:
     return out
 
 
-def match(hyp: list[str], ref: list[set[str]]) -> list[tuple[int, int]]:
+def match_sets(hyp: list[str], ref: list[set[str]]) -> list[tuple[int, int]]:
     """Pairs (i, j) with ``hyp[i]`` in ``ref[j]`` on a minimum edit path."""
-    n, m = len(hyp), len(ref)
-    cost = np.zeros((n + 1, m + 1))
-    cost[:, 0] = np.arange(n + 1)
-    cost[0, :] = np.arange(m + 1)
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            sub = 0 if hyp[i - 1] in ref[j - 1] else 1
-            cost[i, j] = min(cost[i - 1, j] + 1, cost[i, j - 1] + 1, cost[i - 1, j - 1] + sub)
-    pairs = []
-    i, j = n, m
-    while i and j:
-        sub = 0 if hyp[i - 1] in ref[j - 1] else 1
-        if cost[i, j] == cost[i - 1, j - 1] + sub:
-            if sub == 0:
-                pairs.append((i - 1, j - 1))
-            i, j = i - 1, j - 1
-        elif cost[i, j] == cost[i - 1, j] + 1:
-            i -= 1
-        else:
-            j -= 1
-    return pairs[::-1]
+    return match(hyp, ref, same=lambda h, r: h in r)
 
 
 def phone_class(phone: str) -> str:
@@ -169,7 +149,7 @@ def run(data: Path, speakers, limit, events: bool, verbose: bool) -> dict:
         if al.n_estimated:
             estimated.append(f"{name}: {al.n_estimated} phones estimated")
         hyp = [p.phone for p in al.phones]
-        pairs = match(hyp, [p.phones for p in ref])
+        pairs = match_sets(hyp, [p.phones for p in ref])
         n_ref += len(ref)
         for i, j in pairs:
             ph = al.phones[i].phone

@@ -179,17 +179,26 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
     Returns counts: keys written, keys replaced, F-curves created.
     """
     key = obj.data.shape_keys
-    n = values.shape[0]
-    last = first_frame + n - 1
     rec = _record(key)
+    counts = _key_channels(key, rec, shape_keys, [(data_path(name), 0) for name in shape_keys], values,
+                           first_frame, tolerance, f"{obj.name}_LipSync", label)
+    key[RECORD] = json.dumps(rec)
+    return counts
+
+
+def _key_channels(id_data, rec: dict, names: list[str], channels: list[tuple[str, int]], values: np.ndarray,
+                  first_frame: int, tolerance: float, action_name: str, label: str) -> dict:
+    """Key each column of ``values`` on its channel (data path, index) of
+    ``id_data`` and note in ``rec`` (the add-on's record, under ``names``)
+    what was created and which frames were keyed; the counts :func:`write` returns."""
+    last = first_frame + values.shape[0] - 1
     written = replaced = created = 0
-    for j, name in enumerate(shape_keys):
-        path = data_path(name)
-        if compat.find_fcurve(key, path) is None:
+    for j, (name, (path, index)) in enumerate(zip(names, channels)):
+        if compat.find_fcurve(id_data, path, index) is None:
             created += 1
             if name not in rec["created"]:
                 rec["created"].append(name)
-        w, r = _write_curve(key, path, 0, values[:, j], first_frame, tolerance, f"{obj.name}_LipSync")
+        w, r = _write_curve(id_data, path, index, values[:, j], first_frame, tolerance, action_name)
         written += w
         replaced += r
         spans = rec["ranges"].setdefault(name, [])
@@ -197,9 +206,8 @@ def write(obj, shape_keys: list[str], values: np.ndarray, first_frame: int, tole
             spans.append([first_frame, last])
     rec.setdefault("runs", []).append({"label": label, "first": first_frame, "last": last})
     rec["runs"] = rec["runs"][-50:]
-    key[RECORD] = json.dumps(rec)
     return {"keys": written, "replaced": replaced, "fcurves_created": created,
-            "first_frame": first_frame, "last_frame": last, "shape_keys": len(shape_keys)}
+            "first_frame": first_frame, "last_frame": last, "shape_keys": len(names)}
 
 
 # --- bone rigs ------------------------------------------------------------------
@@ -233,7 +241,7 @@ def write_rig(obj, channels: list[tuple[str, int]], values: np.ndarray, first_fr
     n = values.shape[0]
     last = first_frame + n - 1
     rec = _rig_record(obj)
-    written = replaced = created = 0
+    dropped = 0
     names = [f"{index}:{path}" for path, index in channels]
     for name, spans in rec["ranges"].items():
         if name in names:
@@ -242,23 +250,11 @@ def write_rig(obj, channels: list[tuple[str, int]], values: np.ndarray, first_fr
         for a, b in spans if fc is not None else []:
             lo, hi = max(a, first_frame), min(b, last)
             if lo <= hi:
-                replaced += replace_range(fc, lo, hi)
-    for j, (name, (path, index)) in enumerate(zip(names, channels)):
-        if compat.find_fcurve(obj, path, index) is None:
-            created += 1
-            if name not in rec["created"]:
-                rec["created"].append(name)
-        w, r = _write_curve(obj, path, index, values[:, j], first_frame, tolerance, f"{obj.name}_LipSync")
-        written += w
-        replaced += r
-        spans = rec["ranges"].setdefault(name, [])
-        if [first_frame, last] not in spans:
-            spans.append([first_frame, last])
-    rec.setdefault("runs", []).append({"label": label, "first": first_frame, "last": last})
-    rec["runs"] = rec["runs"][-50:]
+                dropped += replace_range(fc, lo, hi)
+    counts = _key_channels(obj, rec, names, channels, values, first_frame, tolerance, f"{obj.name}_LipSync", label)
+    counts["replaced"] += dropped
     obj[RIG_RECORD] = json.dumps(rec)
-    return {"keys": written, "replaced": replaced, "fcurves_created": created,
-            "first_frame": first_frame, "last_frame": last, "shape_keys": len(channels)}
+    return counts
 
 
 def _clear_rig(obj) -> dict:

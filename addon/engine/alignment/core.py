@@ -17,7 +17,7 @@ from .reduced import shorten_reduced
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
 from .stream import align_stream
-from .speech import _speech_spans, frame_levels, speech_mask, unspoken_speech
+from .speech import _speech_spans, speech_or_refuse, unspoken_speech
 
 
 def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequence[float] | None = None,
@@ -43,12 +43,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     if audio.duration < 0.1:
         raise AudioError(f"the audio is too short to hold speech ({audio.duration:.3f} s; "
                          "a line needs at least 0.1 s)")
-    levels = frame_levels(audio)
-    mask, _ = speech_mask(levels, audio)
-    if not mask.any():
-        raise AudioError(
-            f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
-            "check that the right sound is selected and that it is not muted")
+    _levels, mask = speech_or_refuse(audio)
     result: list[list[tuple[str, float, float]] | None] = [None] * n
     est = [False] * n
     notes: list[str] = []

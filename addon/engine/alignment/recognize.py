@@ -22,12 +22,11 @@ from collections.abc import Callable
 import numpy as np
 
 from ..audio import Audio
-from ..errors import AudioError
 from .chunks import plan_chunks
 from .estimate import _clean, _estimate
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
-from .speech import frame_levels, speech_mask
+from .speech import speech_or_refuse
 
 #: The recogniser's search.  Scoring every second frame (``ds``) and pruning
 #: harder than pocketsphinx's defaults makes it about four times faster; the
@@ -154,12 +153,7 @@ def recognize(audio: Audio, settings: AlignSettings | None = None,
     """What ``audio`` says, recognised and aligned: an :class:`Alignment`
     whose words all carry ``recognized = True``."""
     settings = settings or AlignSettings()
-    levels = frame_levels(audio)
-    mask, _ = speech_mask(levels, audio)
-    if not mask.any():
-        raise AudioError(
-            f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
-            "check that the right sound is selected and that it is not muted")
+    _levels, mask = speech_or_refuse(audio)
     words, phones = recognize_spans(audio, speech_chunks(mask, settings, audio.duration), settings, progress)
     if not words:
         note = "no transcript, and no words were recognised in the audio: the mouth stays at rest"

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from ..audio import Audio
+from ..errors import AudioError
 from .model import FRAME, AlignedWord
 
 
@@ -35,6 +36,18 @@ def frame_levels(audio: Audio, hop: float = FRAME) -> np.ndarray:
         starts = np.arange(k1 - k0) * step
         power[k0:k1] = np.maximum(run[starts + win] - run[starts], 0.0) / win
     return 10.0 * np.log10(power + 1e-12)
+
+
+def speech_or_refuse(audio: Audio) -> tuple[np.ndarray, np.ndarray]:
+    """The clip's frame levels and speech mask (:func:`speech_mask`); an
+    :class:`AudioError` when no frame holds speech."""
+    levels = frame_levels(audio)
+    mask, _ = speech_mask(levels, audio)
+    if not mask.any():
+        raise AudioError(
+            f"the audio holds no speech (loudest level {float(levels.max()):.0f} dBFS): "
+            "check that the right sound is selected and that it is not muted")
+    return levels, mask
 
 
 def speech_mask(levels: np.ndarray, audio: Audio | None = None) -> tuple[np.ndarray, float]:
