@@ -373,5 +373,5 @@ def test_readme_installs_the_versions_this_environment_pins():
     wanted = dict(re.findall(r"([\w.-]+)==([\w.]+)", pip))
     pinned = dict(re.findall(r"^([\w.-]+)==([\w.]+)", (ROOT / "requirements.txt").read_text(), re.M))
     assert set(wanted) == {"numpy", "praat-parselmouth", "pocketsphinx", "dask", "distributed",
-                            "cloudpickle"}
+                            "cloudpickle", "soundfile", "av", "espeakng-loader", "pykakasi"}
     assert wanted == {k: pinned[k] for k in wanted}
