@@ -6,7 +6,8 @@
 
 Each ``--audio`` file is placed after the previous one (from ``--frame``,
 or the scene's start), with its transcript from ``--text``/``--transcript``
-or the .txt beside it.  Strips go to their own mesh by the rule that
+or the .txt beside it; with none, the words are recognised from the audio
+(English), and the line's report says so.  Strips go to their own mesh by the rule that
 *Generate for All Strips* uses.  A manifest (CSV or JSON lines, read by
 :mod:`..engine.batch`) names many lines onto many meshes.  Every line runs
 through the engine's batch runner in this process, the models loaded once.

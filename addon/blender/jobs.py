@@ -275,7 +275,7 @@ def restore(group, values: dict) -> None:
 
 # --- Generate's job ---------------------------------------------------------------
 
-def lipsync_job(scene, obj, clip, text: str, options: run.Options) -> Job:
+def lipsync_job(scene, obj, clip, text: str | None, options: run.Options) -> Job:
     """Generate as a job: the mesh's mapping and the scene's frame rate are
     read now, the engine runs in the thread, and the keys are written when
     the job is polled done, if the scene and the mesh are still there."""

@@ -57,7 +57,7 @@ def collect(scene, obj, strip_names: list[str] | None = None):
     out = []
     for s in chosen:
         clip = sources.strip_clip(scene, s)
-        text, _where = sources.strip_transcript(s, clip.audio_path)
+        text, _where = sources.strip_transcript(s, clip.audio_path, required=True)
         n = int(np.floor(clip.audio.duration * fps + 1e-9)) + 1
         times, values, names = _tracks(obj, clip.first_frame, n, fps)
         out.append((s.name, clip.audio, text, times, values, names))

@@ -10,6 +10,7 @@ import bpy
 from ..engine import mapping as mapping_mod
 from ..engine import visemes
 from ..engine.errors import LipSyncError
+from ..engine.language import resolve_language
 from . import compat, keying, run, sources
 from .emotion_markers import STRIP_AROUSAL
 from .operators import (LIPSYNC_OT_auto_map, LIPSYNC_OT_clear, LIPSYNC_OT_generate, LIPSYNC_OT_generate_all,
@@ -87,31 +88,57 @@ def problems(context) -> list[str]:
                 out.append(f"Unmapped visemes: {', '.join(missing)}")
         except LipSyncError as exc:
             out.append(str(exc))
-    audio_path = None
+    audio_path = _audio(context, out)
+    if st.text_block is not None and not st.text_block.as_string().strip():
+        out.append(f"Text block {st.text_block.name} is empty")
+    elif not _has_text(st, audio_path) and st.language.strip():
+        try:
+            lang = resolve_language(st.language)
+        except LipSyncError as exc:
+            out.append(str(exc).split(";")[0])
+        else:
+            if not lang.is_english:
+                out.append(f"No transcript: a line in {lang.name} needs one (speech is recognised in English "
+                           "only)")
+    return out
+
+
+def _audio(context, out: list[str] | None = None) -> str | None:
+    """The path of the audio Generate would read (None for packed sound);
+    what is wrong with the choice goes into ``out``."""
+    st = context.scene.emotive_lipsync
+    out = [] if out is None else out
     if st.source == "FILE":
-        path = bpy.path.abspath(st.audio_file)
         if not st.audio_file:
             out.append("No audio file")
-        elif not os.path.isfile(path):
+            return None
+        path = bpy.path.abspath(st.audio_file)
+        if not os.path.isfile(path):
             out.append(f"Audio file not found: {st.audio_file}")
-        audio_path = path
+        return path
+    if st.strip:
+        strip = next((s for s in compat.sound_strips(context.scene) if s.name == st.strip), None)
+        if strip is None:
+            out.append(f"No sound strip named {st.strip}")
     else:
-        strip = None
-        if st.strip:
-            strip = next((s for s in compat.sound_strips(context.scene) if s.name == st.strip), None)
-            if strip is None:
-                out.append(f"No sound strip named {st.strip}")
-        else:
-            strip = sources.active_sound_strip(context.scene)
-            if strip is None:
-                out.append("No sound strip: add one, or pick an audio file")
-        if strip is not None and strip.sound is not None and strip.sound.packed_file is None:
-            audio_path = sources.sound_path(strip.sound)
-    has_text = (st.text_block is not None and st.text_block.as_string().strip()) or st.text.strip() or \
-        (audio_path and sources.has_sidecar_transcript(audio_path))
-    if not has_text:
-        out.append("No transcript: type it, pick a text block, or save a .txt beside the audio")
-    return out
+        strip = sources.active_sound_strip(context.scene)
+        if strip is None:
+            out.append("No sound strip: add one, or pick an audio file")
+    if strip is not None and strip.sound is not None and strip.sound.packed_file is None:
+        return sources.sound_path(strip.sound)
+    return None
+
+
+def _has_text(st, audio_path: str | None) -> bool:
+    return bool((st.text_block is not None and st.text_block.as_string().strip()) or st.text.strip() or
+                (audio_path and sources.has_sidecar_transcript(audio_path)))
+
+
+def transcript_note(context) -> str:
+    """What Generate will read the words from, when that is not a transcript."""
+    if _has_text(context.scene.emotive_lipsync, _audio(context)):
+        return ""
+    return "No transcript: the words will be recognised from the audio"
 
 
 class LIPSYNC_UL_mapping(bpy.types.UIList):
@@ -178,6 +205,9 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         box = layout.box() if issues else None
         for msg in issues:
             box.label(text=msg, icon="ERROR")
+        note = "" if issues else transcript_note(context)
+        if note:
+            layout.label(text=note, icon="INFO")
         row = layout.row()
         row.scale_y = 1.6
         row.enabled = not issues

@@ -299,7 +299,7 @@ class Plan:
     scene: str
     mesh: str
     clip: Clip
-    text: str
+    text: str | None                 # None: the words are recognised from the audio
     options: Options
     fps: float
     mapping: dict[str, dict[str, float]]
@@ -319,7 +319,7 @@ class Analysis:
     seconds: float
 
 
-def plan(scene, obj, clip: Clip, text: str, options: Options) -> Plan:
+def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
     """Read a run's inputs from Blender (an empty mapping is filled in first,
     see :func:`mesh_mapping`)."""
     if options.emotion.learned is not None:
@@ -472,7 +472,7 @@ def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames:
             "kept": kept}
 
 
-def generate(scene, obj, clip: Clip, text: str, options: Options, progress=None) -> Summary:
+def generate(scene, obj, clip: Clip, text: str | None, options: Options, progress=None) -> Summary:
     """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
     p = plan(scene, obj, clip, text, options)
     return key(obj, p, analyze(p, progress))

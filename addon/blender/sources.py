@@ -146,9 +146,17 @@ def has_sidecar_transcript(audio_path: str | None) -> bool:
         return True
 
 
-def transcript(text: str = "", text_block=None, audio_path: str | None = None) -> tuple[str, str]:
+#: Where the words come from when no transcript is given.
+RECOGNISED = "recognised from the audio (no transcript)"
+
+
+def transcript(text: str = "", text_block=None, audio_path: str | None = None,
+               required: bool = False) -> tuple[str | None, str]:
     """The transcript and where it came from: a text block, typed text, or
-    a .txt beside the audio, in that order."""
+    a .txt beside the audio, in that order.  With none of them the text is
+    None (the words are recognised from the audio: :data:`RECOGNISED`),
+    unless ``required``.  A text block or .txt that is there but empty is
+    an error either way: the user meant it to hold the words."""
     if text_block is not None:
         body = text_block.as_string()
         if not body.strip():
@@ -161,14 +169,17 @@ def transcript(text: str = "", text_block=None, audio_path: str | None = None) -
         if not side.strip():
             raise TranscriptError(f"the transcript is empty: {os.path.splitext(audio_path)[0]}.txt holds no text")
         return side, os.path.basename(os.path.splitext(audio_path)[0] + ".txt")
+    if not required:
+        return None, RECOGNISED
     where = f" or save it as {os.path.basename(os.path.splitext(audio_path)[0])}.txt beside the audio" \
         if audio_path else ""
     raise TranscriptError(f"the transcript is empty: type it, pick a text block{where}")
 
 
-def strip_transcript(strip, audio_path: str | None) -> tuple[str, str]:
+def strip_transcript(strip, audio_path: str | None, required: bool = False) -> tuple[str | None, str]:
     """For batch runs: the strip's ``lipsync_text`` (a text block's name),
-    else the .txt beside its audio."""
+    else the .txt beside its audio, else (unless ``required``) None: the
+    words are recognised."""
     name = strip.get(STRIP_TEXT)
     if name:
         block = bpy.data.texts.get(name)
@@ -176,7 +187,10 @@ def strip_transcript(strip, audio_path: str | None) -> tuple[str, str]:
             raise TranscriptError(f"strip {strip.name!r}: its lipsync_text names {name!r}, "
                                   "which is not a text block")
         return transcript(text_block=block)
-    return transcript(audio_path=audio_path)
+    try:
+        return transcript(audio_path=audio_path, required=required)
+    except TranscriptError as exc:
+        raise TranscriptError(f"strip {strip.name!r}: {exc}") from None
 
 
 def strip_language(strip) -> str | None:
