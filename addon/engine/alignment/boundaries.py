@@ -22,7 +22,16 @@ offsets are the ones that put the most boundaries within 20 ms of the hand
 labels (then within 40 ms) on four TIMIT speakers (the development half of
 ``bench/timit.py``), in steps of 5 ms, for the pairs seen at least five times
 there.  Every phone keeps at least ``boundary.min_phone`` s (30 ms: the
-decoder's own shortest phone, three 10 ms states).  The clip's first phone
+decoder's own shortest phone, three 10 ms states).
+
+A /t/ run straight into /p b m/ (``boundary.unreleased``: "it pays",
+"atmosphere", "that man") is unreleased or glottal in running speech and its
+closure is silent, so the lips close for the labial while the tongue holds
+the /t/ (hand labels give the whole closure to the labial).  Such a /t/ keeps
+its aligned start and lasts ``min_phone``; the labial starts there, and no
+offset moves either boundary (the 35 ms of ``plosive>plosive`` would close
+the lips late).  On the development speakers this holds for /t/ only: /d/
+(its closure voiced and heard) and /k/ before a labial fare worse with it.  The clip's first phone
 moves no later than the voice onset: the first moment the level (25 ms
 windows every 5 ms) is ``boundary.onset_rise`` dB above the quiet level
 (10th percentile) of the audio within 15 s of it, or
@@ -84,9 +93,19 @@ def _settings() -> dict:
     return settings().get("boundary", {})
 
 
+def _unreleased(result: list, estimated: list[bool], stops: set[str], labials: set[str]) -> set[tuple[int, int]]:
+    """(word, index) of every phone of ``stops`` that runs straight into a
+    phone of ``labials``, neither placed by estimate."""
+    seq = [(wi, k, p, a, b) for wi, ph in enumerate(result) if ph and not estimated[wi]
+           for k, (p, a, b) in enumerate(ph)]
+    return {(w0, k0) for (w0, k0, p, _a, b), (_w1, _k1, q, c, _d) in zip(seq, seq[1:])
+            if p in stops and q in labials and abs(b - c) < 1e-6}
+
+
 def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dict | None = None) -> None:
     """Move each phone's start (and the end of the phone before it, when
-    that phone ends there) by the offset of its class pair, in place.
+    that phone ends there) by the offset of its class pair, in place; a
+    /t/ run into /p b m/ lasts ``min_phone`` and the lips close after it.
 
     ``result`` holds per word a list of (phone, start, end), or None; phones
     of words placed by estimate are left alone, and so is a boundary with
@@ -95,7 +114,9 @@ def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dic
     table = {str(k): float(v) for k, v in cfg.get("shift", {}).items()}
     default = float(cfg.get("default", 0.0))
     keep = float(cfg.get("min_phone", 0.03))
-    if not table and not default:
+    unreleased = cfg.get("unreleased", {})
+    held = _unreleased(result, estimated, set(unreleased.get("stops", ())), set(unreleased.get("before", ())))
+    if not table and not default and not held:
         return
     before = None      # (word, index) of the phone seen last, None when it was estimated
     prev_end = None    # where the phone seen last ends (None: no phone yet)
@@ -111,19 +132,34 @@ def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dic
                 prev_end = b
                 continue
             prev = result[before[0]][before[1]] if joined else None
-            left = boundary_class(prev[0] if prev else None, first=prev_end is None)
-            right = boundary_class(p)
-            off = table.get(f"{left}>{right}", default) if left and right else 0.0
-            if off:
-                # Neither phone may shrink below ``keep``, nor a phone after a pause cross it;
-                # a boundary these limits would move against its offset stays.
-                lo = prev[1] + keep if prev else (prev_end if prev_end is not None else 0.0)
-                start = min(max(a + off, lo), b - keep)
-                if left == "start" and start > a:
-                    start = min(start, voice_onset(audio, a, b - keep, float(cfg.get("onset_rise", 20.0)),
-                                                   float(cfg.get("onset_below_peak", 10.0))))
-                if (start - a) * off > 0:
-                    ph[k] = (p, start, b)
-                    if prev:
-                        result[before[0]][before[1]] = (prev[0], prev[1], start)
+            if (wi, k) in held:
+                start = a              # the unreleased stop keeps its aligned start ...
+            elif joined and before in held:
+                start = min(a, prev[1] + keep)      # ... and the lips close ``keep`` after it
+            else:
+                start = _shifted(audio, p, a, b, prev, prev_end, table, default, keep, cfg)
+            if start != a:
+                ph[k] = (p, start, b)
+                if prev:
+                    result[before[0]][before[1]] = (prev[0], prev[1], start)
             before, prev_end = (wi, k), b
+
+
+def _shifted(audio: Audio, p: str, a: float, b: float, prev: tuple | None, prev_end: float | None,
+             table: dict[str, float], default: float, keep: float, cfg: dict) -> float:
+    """Where the phone ``p`` aligned at [``a``, ``b``] starts after its
+    pair's offset (``prev``: the phone joined to it, None after a pause or at
+    the clip's start)."""
+    left = boundary_class(prev[0] if prev else None, first=prev_end is None)
+    right = boundary_class(p)
+    off = table.get(f"{left}>{right}", default) if left and right else 0.0
+    if not off:
+        return a
+    # Neither phone may shrink below ``keep``, nor a phone after a pause cross it;
+    # a boundary these limits would move against its offset stays.
+    lo = prev[1] + keep if prev else (prev_end if prev_end is not None else 0.0)
+    start = min(max(a + off, lo), b - keep)
+    if left == "start" and start > a:
+        start = min(start, voice_onset(audio, a, b - keep, float(cfg.get("onset_rise", 20.0)),
+                                       float(cfg.get("onset_below_peak", 10.0))))
+    return start if (start - a) * off > 0 else a
