@@ -34,7 +34,8 @@ and /h/ included), ``nasal``, ``liquid`` (/l r/) and ``glide`` (/w y/).  The
 offsets are the ones that put the most boundaries within 20 ms of the hand
 labels (then within 40 ms) on four TIMIT speakers (the development half of
 ``bench/timit.py``), in steps of 5 ms, for the pairs seen at least five times
-there.  Every phone keeps at least ``boundary.min_phone`` s (30 ms: the
+there (a nasal after a fricative or a stop, three and four times, shares one
+offset: 20 ms).  Every phone keeps at least ``boundary.min_phone`` s (30 ms: the
 decoder's own shortest phone, three 10 ms states).  The clip's first phone
 moves no later than the voice onset: the first moment the level (25 ms
 windows every 5 ms) is ``boundary.onset_rise`` dB above the quiet level
