@@ -103,6 +103,10 @@ def test_the_shipped_settings_are_read_from_timing_json():
     result = [[("AA", 0.30, 0.40), ("S", 0.40, 0.55)]]
     shift_boundaries(QUIET, result, [False])
     assert result[0][1][1] == pytest.approx(0.40 + off)
+    # "atmosphere" with the shipped settings: the lips close min_phone after the /t/ starts.
+    result = [[("AE", 0.30, 0.42), ("T", 0.42, 0.49), ("M", 0.49, 0.55), ("AH", 0.55, 0.60)]]
+    shift_boundaries(QUIET, result, [False])
+    assert result[0][1][1] == 0.42 and result[0][2][1] == pytest.approx(0.42 + shipped["min_phone"])
     # Every named pair is a pair of known classes, and each offset is small.
     known = {"start", "gap", "vowel", "plosive", "fricative", "nasal", "liquid", "glide"}
     for pair, value in shipped["shift"].items():
