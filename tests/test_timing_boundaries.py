@@ -103,6 +103,10 @@ def test_the_shipped_settings_are_read_from_timing_json():
     result = [[("AA", 0.30, 0.40), ("S", 0.40, 0.55)]]
     shift_boundaries(QUIET, result, [False])
     assert result[0][1][1] == pytest.approx(0.40 + off)
+    # "atmosphere" with the shipped settings: the lips close min_phone after the /t/ starts.
+    result = [[("AE", 0.30, 0.42), ("T", 0.42, 0.49), ("M", 0.49, 0.55), ("AH", 0.55, 0.60)]]
+    shift_boundaries(QUIET, result, [False])
+    assert result[0][1][1] == 0.42 and result[0][2][1] == pytest.approx(0.42 + shipped["min_phone"])
     # Every named pair is a pair of known classes, and each offset is small.
     known = {"start", "gap", "vowel", "plosive", "fricative", "nasal", "liquid", "glide"}
     for pair, value in shipped["shift"].items():
@@ -133,3 +137,37 @@ def _phones(text):
 
     lex = Lexicon()
     return [lex.pronounce(w).phones for w in normalize(text)]
+
+
+UNRELEASED = dict(CFG, min_phone=0.03, unreleased={"stops": ["T"], "before": ["P", "B", "M"]},
+                  shift=dict(CFG["shift"], **{"vowel>plosive": 0.01, "plosive>plosive": 0.035, "plosive>nasal": 0.02}))
+
+
+def test_a_t_run_into_a_labial_lasts_the_least_length_and_the_lips_close_after_it():
+    # "atmosphere": AE T M, the T aligned 50 ms long: no offset moves its start, the M starts 30 ms after it
+    # (and ends where nasal>vowel puts it).
+    result = [[("AE", 0.30, 0.42), ("T", 0.42, 0.47), ("M", 0.47, 0.55), ("AH", 0.55, 0.60)]]
+    shift_boundaries(QUIET, result, [False], UNRELEASED)
+    assert result[0][:3] == [("AE", 0.30, 0.42), ("T", 0.42, pytest.approx(0.45)),
+                             ("M", pytest.approx(0.45), pytest.approx(0.545))]
+    # "it pays": a T already 30 ms long keeps its place, and plosive>plosive (35 ms) does not push the P later.
+    result = [[("IH", 0.30, 0.40), ("T", 0.40, 0.43)], [("P", 0.43, 0.52), ("EY", 0.52, 0.70)]]
+    shift_boundaries(QUIET, result, [False, False], UNRELEASED)
+    assert result[0][1] == ("T", 0.40, 0.43) and result[1][0][:2] == ("P", 0.43)
+
+
+def test_other_stops_before_a_labial_and_a_t_before_other_phones_take_their_offsets():
+    result = [[("AE", 0.30, 0.42), ("D", 0.42, 0.47), ("M", 0.47, 0.55)]]
+    shift_boundaries(QUIET, result, [False], UNRELEASED)
+    assert result[0] == [("AE", 0.30, pytest.approx(0.43)), ("D", pytest.approx(0.43), pytest.approx(0.49)),
+                         ("M", pytest.approx(0.49), 0.55)]
+    result = [[("AE", 0.30, 0.42), ("T", 0.42, 0.47), ("K", 0.47, 0.55)]]
+    shift_boundaries(QUIET, result, [False], UNRELEASED)
+    assert result[0][1] == ("T", pytest.approx(0.43), pytest.approx(0.505))
+    # A T before a labial across a pause, or next to an estimated word, is left to the table (or alone).
+    result = [[("AE", 0.30, 0.42), ("T", 0.42, 0.47)], [("M", 0.60, 0.70)]]
+    shift_boundaries(QUIET, result, [False, False], UNRELEASED)
+    assert result[0][1] == ("T", pytest.approx(0.43), 0.47)
+    result = [[("AE", 0.30, 0.42), ("T", 0.42, 0.47)], [("M", 0.47, 0.70)]]
+    shift_boundaries(QUIET, result, [False, True], UNRELEASED)
+    assert result == [[("AE", 0.30, pytest.approx(0.43)), ("T", pytest.approx(0.43), 0.47)], [("M", 0.47, 0.70)]]
