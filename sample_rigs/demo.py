@@ -68,7 +68,7 @@ VOWELS = {"OW", "UW", "OY", "AA", "AE", "AY"}
 EMOTIONS = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
 EMOTION_PHONE = ("EH", "very")    # (phone, in the word)
 EMOTION_VIEW = (0.18, 0.2)          # m: the face and a strip of text above and below
-EMOTION_TILE = (360, 400)           # pixels of one frame of the emotions sheet
+EMOTION_TILE = (432, 480)           # pixels of one frame of the emotions sheet
 
 
 def _material(name, rgba):
