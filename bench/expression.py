@@ -37,10 +37,10 @@ from common import DATA, ROOT
 
 sys.path[:0] = [str(ROOT / "sample_rigs"), str(ROOT / "tests" / "blender")]
 
-import bpy  # noqa: E402
+import bpy
 
-import human  # noqa: E402
-from heads import BILABIALS, FPS, measure  # noqa: E402
+import human
+from heads import BILABIALS, FPS, measure
 
 EMOTIONS = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
 UPPER = ("AU1", "AU2", "AU4", "AU5", "AU6", "AU7")      # brows, eyes, cheeks
@@ -50,18 +50,15 @@ GAP = 0.05
 
 def lines() -> list[tuple[str, str, str]]:
     """(name, audio path, transcript) of the held-out lines."""
-    d = DATA
-    found = [("61-70968-0000", d / "mfa" / "61-70968-0000.flac", (d / "mfa" / "61-70968-0000.lab")),
-             ("bobby", d / "praatio" / "bobby.wav", "Bobby ripped the ledger"),
-             ("mary", d / "praatio" / "mary.wav", "Mary rolled the barrel")]
-    out = []
-    for name, audio, text in found:
-        if audio.is_file():
-            out.append((name, str(audio), text.read_text(encoding="utf-8") if hasattr(text, "read_text") else text))
+    libri = DATA / "mfa" / "61-70968-0000"
+    held = [("61-70968-0000", libri.with_suffix(".flac"), lambda: libri.with_suffix(".lab").read_text("utf-8")),
+            ("bobby", DATA / "praatio" / "bobby.wav", lambda: "Bobby ripped the ledger"),
+            ("mary", DATA / "praatio" / "mary.wav", lambda: "Mary rolled the barrel")]
+    out = [(name, str(audio), text()) for name, audio, text in held if audio.is_file()]
     if not out:
-        print(f"{DATA} is not here: the sample line instead")
+        print(f"{DATA} is not here (set LIPSYNC_DATA to the recordings folder): the sample line instead")
         speech = ROOT / "sample_rigs" / "speech"
-        out.append(("hello (sample)", str(speech / "hello.wav"), (speech / "hello.txt").read_text(encoding="utf-8")))
+        out.append(("hello (sample)", str(speech / "hello.wav"), (speech / "hello.txt").read_text("utf-8")))
     return out
 
 
@@ -154,5 +151,8 @@ def main() -> int:
 
 if __name__ == "__main__":
     status = main()
-    sys.stdout.flush()
-    os._exit(status) if not bpy.app.binary_path and bpy.app.version < (4, 4, 0) else sys.exit(status)
+    if not bpy.app.binary_path and bpy.app.version < (4, 4, 0):
+        # PyPI's bpy 4.2 and 4.3 crash while Python shuts down once an add-on was registered.
+        sys.stdout.flush()
+        os._exit(status)
+    sys.exit(status)

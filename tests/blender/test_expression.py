@@ -170,3 +170,20 @@ def test_lips_close_under_every_preset_on_the_human_head(empty_scene, pie, human
     assert lowest >= -0.05, (emotion, lowest)
     # Open vowels still open (sad articulates least: about 0.14 to 0.19 of a wide-open jaw on this line).
     assert vowels.min() >= 0.1 and vowels.max() >= 0.15, (emotion, np.round(vowels, 3))
+
+
+def test_the_panel_names_the_units_a_face_has_no_key_for(empty_scene, pie):
+    """The preset's numbers in the panel mark the units the face cannot
+    show: the same units a run's report names."""
+    panel = _mod("blender.panel")
+    arkit = build_head("Face", HEADS["arkit"][0])
+    assert panel.units_without_key(arkit) == []
+    oculus = build_head("Oculus", HEADS["oculus"][0])
+    assert panel.units_without_key(oculus) == list(_mod("engine.expression").units())
+    vroid = build_head("Vroid", HEADS["vroid"][0])
+    missing = panel.units_without_key(vroid)
+    assert missing and "AU4" not in missing        # Fcl_BRW_Angry lowers its brows
+    for emotion in ("angry", "surprised"):
+        _plan, summary = _key(empty_scene, vroid, pie, emotion)
+        units = set(_mod("engine.presets").load(emotion).expression)
+        assert units & set(missing) <= set(summary.no_key) <= set(missing), emotion
