@@ -370,10 +370,15 @@ class HeadData:
         mix of the nearest front-facing skin vertices), so the brow keys
         (``browInnerUp``, ``browDown*``, ``browOuterUp*``) and everything else
         that moves the forehead carry it."""
-        skin = [f for f, p in zip(self.faces, self.parts) if p == "skin"]
-        tris = np.array([[f[0], f[k], f[k + 1]] for f in skin for k in range(1, len(f) - 1)])
-        normals = _vertex_normals(self.co, self.faces)
         sign = 1.0 if side == "L" else -1.0       # the character's left is +X (it faces -Y)
+        tris = _fan([f for f, p in zip(self.faces, self.parts) if p == "skin"])
+        # Only the triangles round the brow need looking at.
+        outline = np.array(brow_outline())
+        xs = np.sort(sign * outline[:, 0])
+        tx, tz = self.co[tris, 0], self.co[tris, 2]
+        tris = tris[(tx.max(axis=1) >= xs[0] - 0.005) & (tx.min(axis=1) <= xs[-1] + 0.005)
+                    & (tz.max(axis=1) >= outline[:, 1].min() - 0.005) & (tz.min(axis=1) <= outline[:, 2].max() + 0.005)]
+        normals = _vertex_normals(self.co, self.faces)
         co, disp = [], {n: [] for n in self.targets}
         for x, z_low, z_high in brow_outline():
             for a in np.linspace(0.0, 1.0, BROW_ACROSS):
@@ -428,12 +433,18 @@ def brow_outline():
     return out
 
 
+def _fan(faces: list[list[int]]) -> np.ndarray:
+    """The faces as triangles (k, 3): each polygon fanned from its first corner."""
+    return np.array([[f[0], f[k], f[k + 1]] for f in faces for k in range(1, len(f) - 1)])
+
+
 def _vertex_normals(co: np.ndarray, faces: list[list[int]]) -> np.ndarray:
     """Area-weighted vertex normals of a mesh (outward for the head's winding)."""
+    tris = _fan(faces)
+    fn = np.cross(co[tris[:, 1]] - co[tris[:, 0]], co[tris[:, 2]] - co[tris[:, 0]])
     n = np.zeros_like(co)
-    for f in faces:
-        p = co[f]
-        n[f] += sum(np.cross(p[k] - p[0], p[k + 1] - p[0]) for k in range(1, len(f) - 1))
+    for k in range(3):
+        np.add.at(n, tris[:, k], fn)
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-12)[:, None]
 
 
