@@ -2,7 +2,8 @@
 # Build the project's environment in .venv/ and run the sample job.
 #   ./setup.sh               environment, then the sample: the human head (ARKit and
 #                            Ready Player Me variants) lip-synced headless ->
-#                            out/sample.blend, out/sample_contact_sheet.png, out/sample.mp4,
+#                            out/sample.blend, out/sample_contact_sheet.png,
+#                            out/sample_emotions.png (the seven emotion presets), out/sample.mp4,
 #                            and the engine's own output -> out/hello.json, out/hello.csv;
 #                            with .venv-bpy42/ (--test-envs) sample.blend is saved by 4.2
 #   ./setup.sh --no-run      environment only

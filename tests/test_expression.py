@@ -160,6 +160,26 @@ def test_speech_and_expression_on_one_key_are_bounded_and_defined():
     assert np.allclose(out[:, 1], speech[:, 1]) and np.allclose(out[:, 2], ex[:, 0])
 
 
+def test_the_closing_pose_presses_no_further_than_the_expression_holds_the_lips():
+    times = np.arange(0, 1.0, 1 / FPS)
+    phones = [("AA", 0.0, 0.4), ("M", 0.4, 0.6), ("AA", 0.6, 1.0)]
+    names = ["mouthPressLeft", "mouthRollUpper", "mouthClose"]
+    speech = np.full((len(times), 3), 0.4)
+    hold = expression.dynamics()["seal_hold"]
+    m = (times >= 0.4) & (times <= 0.6)
+    away = np.abs(times - 0.5) > 0.1 + expression.dynamics()["closure_ramp"] + 1e-9
+    for smile, kept in ((hold, 0.0), (hold / 2, 0.5), (0.0, 1.0)):
+        ex = np.full((len(times), 1), smile)
+        out = expression.seal(names, speech, {"mouthPressLeft", "mouthRollUpper"}, ["mouthSmileLeft"], ex,
+                              {"mouthSmileLeft"}, times, phones)
+        assert np.allclose(out[m, :2], 0.4 * kept), smile        # on the /m/: as much as the smile leaves
+        assert np.allclose(out[away], speech[away]) and np.allclose(out[:, 2], 0.4)   # elsewhere, other keys: as was
+    # Upper-face keys hold nothing closed.
+    out = expression.seal(names, speech, {"mouthPressLeft"}, ["browInnerUp"], np.ones((len(times), 1)),
+                          {"mouthSmileLeft"}, times, phones)
+    assert np.array_equal(out, speech)
+
+
 @pytest.mark.parametrize("name", sorted(EMFACS))
 def test_lips_close_at_every_bilabial_under_every_preset_on_arkit(line, name):
     snd, al = line

@@ -7,6 +7,7 @@ import os
 
 import bpy
 
+from ..engine import conventions
 from ..engine import mapping as mapping_mod
 from ..engine import visemes
 from ..engine.errors import LipSyncError
@@ -47,6 +48,24 @@ def _detected(obj):
     if isinstance(found, LipSyncError):
         raise found
     return found
+
+
+def units_without_key(obj) -> list[str]:
+    """The FACS action units no shape key of ``obj`` shows, as a run finds
+    them (:func:`.run.plan`; its report names those a preset sets); kept
+    like :func:`_detected`.  An armature shows none: the expression layer
+    drives shape keys only."""
+    try:
+        names = run.check_mesh(obj) if obj.type == "MESH" else []
+    except LipSyncError:        # nothing to animate: the panel says why elsewhere
+        return []
+    sig = ("units", obj.name, tuple(names), obj.emotive_lipsync.convention)
+    if sig not in _detect_cache:
+        if len(_detect_cache) > 64:
+            _detect_cache.clear()
+        _detect_cache[sig] = conventions.expression_match(names, run.all_conventions(), (obj.name, obj.data.name),
+                                                          prefer=obj.emotive_lipsync.convention).missing
+    return _detect_cache[sig]
 
 
 def _convention_text(obj) -> str:
@@ -283,9 +302,15 @@ class LIPSYNC_PT_emotion(_Panel, bpy.types.Panel):
             if not len(st.preset_values):
                 layout.label(text="Pick a preset to edit its numbers")
             box = layout.box().column(align=True)
+            obj, _why = _face(context)
+            missing = set(units_without_key(obj)) if obj is not None else set()
             for item in st.preset_values:
                 row = box.row(align=True)
-                row.label(text=item.path)
+                unit = item.path.split(".", 1)[1] if item.path.startswith("expression.") else None
+                if unit in missing:   # the preset sets it, the face cannot show it
+                    row.label(text=f"{item.path}: no key on {obj.name}", icon="ERROR")
+                else:
+                    row.label(text=item.path)
                 prop = {"NUMBER": "number", "TRIPLE": "triple"}.get(item.kind, "text")
                 row.prop(item, prop, text="")
 

@@ -377,11 +377,16 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     speech = list(names)
     face = _expression_keys(obj, plan, result, names, len(values))
     ex_values = face["values"]
+    phones = [(p.phone, p.start, p.end) for p in result.alignment.phones]
+    lower = {k for u, mix in plan.expression.mapping.items() if expression.lower_face(u) for k in mix}
     if plan.closure.relax == "others":
         # The basis shows closed lips: the mouth's expression keys open on /p b m/ only as far as it does.
-        lower = {k for u, mix in plan.expression.mapping.items() if expression.lower_face(u) for k in mix}
-        ex_values = expression.give_way(face["names"], ex_values, lower, result.times,
-                                        [(p.phone, p.start, p.end) for p in result.alignment.phones])
+        ex_values = expression.give_way(face["names"], ex_values, lower, result.times, phones)
+    else:
+        # The closing pose presses the lips only as far as the mouth's expression does not hold them together.
+        pressing = set(plan.mapping.get(plan.closure.viseme, {})) - set(plan.closure.relative) - \
+            plan.closure.relaxed_keys(plan.mapping)
+        values = expression.seal(names, values, pressing, face["names"], ex_values, lower, result.times, phones)
     names, values = expression.combine(names, values, face["names"], ex_values)
     names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
     gone = sorted(set(names) - set(check_mesh(obj)))

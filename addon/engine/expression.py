@@ -25,7 +25,10 @@ and expression drive one key (ARKit's ``mouthSmile*``, ``mouthFrown*``,
 ``mouthStretch*``, ``mouthPress*``, ``jawOpen``), :func:`combine` adds them
 as 1 - (1 - speech)(1 - expression): either alone is unchanged, together
 they never pass 1, and the rig's closure rule applied afterwards still
-closes the lips.
+closes the lips.  On /p b m/ the closing pose's own pressing keys
+(``mouthPress*``, ``mouthRoll*``) give way to a mouth the expression
+already holds closed (:func:`seal`): a smile or a tightened mouth pressed
+again by the closure would push the lips through each other.
 """
 
 from __future__ import annotations
@@ -210,6 +213,28 @@ def combine(names: list[str], values: np.ndarray, ex_names: list[str], ex_values
     if extra:
         values = np.hstack([values.reshape(len(ex_values), -1), ex_values[:, cols]])
     return names + extra, np.clip(values, 0.0, 1.0)
+
+
+def seal(names: list[str], values: np.ndarray, pressing: set[str], ex_names: list[str], ex_values: np.ndarray,
+         lower: set[str], times: np.ndarray, phones: list[tuple[str, float, float]]) -> np.ndarray:
+    """The speech's ``values`` (frames, keys) with the closing pose's own
+    pressing keys (``pressing``: ARKit's ``mouthPress*``, ``mouthRoll*``)
+    giving way, on /p b m/, to the mouth's expression: lips a smile, a frown
+    or a tightener already holds together need less pressing, and pressed
+    by both they pass through each other.  Each is scaled by 1 - closure x
+    hold (closure: :func:`closing`), where hold is the strongest of the expression's mouth keys
+    (``lower``, among ``ex_names``) on that frame over ``seal_hold``, at
+    most 1: a mouth key at ``seal_hold`` or more holds the closed lips on
+    its own."""
+    values = np.array(values, dtype=float, copy=True)
+    cols = [j for j, k in enumerate(names) if k in pressing]
+    held = [j for j, k in enumerate(ex_names) if k in lower]
+    if cols and held and len(values):
+        hold = dynamics()["seal_hold"]
+        level = np.clip(np.asarray(ex_values, dtype=float)[:, held].max(axis=1) / hold, 0.0, 1.0)
+        c = closing(np.asarray(times, dtype=float), phones)
+        values[:, cols] *= (1.0 - c * level)[:, None]
+    return values
 
 
 def fit(clips, channels: list[str], fps: float, floor: float = 0.05) -> dict[str, dict]:

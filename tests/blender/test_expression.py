@@ -143,3 +143,47 @@ def test_a_rig_without_expression_keys_animates_as_before(empty_scene, pie):
     assert {"AU6", "AU12"} <= set(summary.expression) and summary.no_key == []
     assert {"cheekSquintLeft", "mouthSmileRight"} <= keyed_shape_keys(rpm)
     assert not any(k.startswith("jaw") or k == "mouthClose" for k in keyed_shape_keys(rpm))
+
+
+@pytest.fixture(scope="module")
+def human_head(extension):
+    """The human sample head's module, its assets fetched as ``./setup.sh`` fetches them."""
+    import human
+
+    human.assets()
+    return human
+
+
+@pytest.mark.parametrize("emotion", ("neutral",) + EMOTIONS)
+def test_lips_close_under_every_preset_on_the_human_head(empty_scene, pie, human_head, emotion):
+    """The human head's ARKit keys are sculpted: its smile and its lip
+    tightener press the closed lips together themselves, so on /p b m/ the
+    closing pose presses them no further, and they meet without passing
+    through each other (the lips' own vertices measured, as in test_human)."""
+    obj = human_head.build("Head", "arkit")
+    _plan, summary = _key(empty_scene, obj, pie, emotion)
+    assert set(_mod("engine.presets").load(emotion).expression) <= set(summary.expression)
+    g = obj.vertex_groups["lips"].index
+    lips = [v.index for v in obj.data.vertices if any(e.group == g for e in v.groups)]
+    closed, vowels, lowest = measure(obj, "jawOpen", pie[1].phones, among=lips)
+    assert len(closed) >= 8 and closed.max() <= 0.05, (emotion, np.round(closed, 3))
+    assert lowest >= -0.05, (emotion, lowest)
+    # Open vowels still open (sad articulates least: about 0.14 to 0.19 of a wide-open jaw on this line).
+    assert vowels.min() >= 0.1 and vowels.max() >= 0.15, (emotion, np.round(vowels, 3))
+
+
+def test_the_panel_names_the_units_a_face_has_no_key_for(empty_scene, pie):
+    """The preset's numbers in the panel mark the units the face cannot
+    show: the same units a run's report names."""
+    panel = _mod("blender.panel")
+    arkit = build_head("Face", HEADS["arkit"][0])
+    assert panel.units_without_key(arkit) == []
+    oculus = build_head("Oculus", HEADS["oculus"][0])
+    assert panel.units_without_key(oculus) == list(_mod("engine.expression").units())
+    vroid = build_head("Vroid", HEADS["vroid"][0])
+    missing = panel.units_without_key(vroid)
+    assert missing and "AU4" not in missing        # Fcl_BRW_Angry lowers its brows
+    for emotion in ("angry", "surprised"):
+        _plan, summary = _key(empty_scene, vroid, pie, emotion)
+        units = set(_mod("engine.presets").load(emotion).expression)
+        assert units & set(missing) <= set(summary.no_key) <= set(missing), emotion

@@ -128,6 +128,32 @@ def test_teeth_and_tongue_follow_the_targets(empty_scene):
     assert moved("eyeLookUpLeft", "eye_L") > 0.0 and moved("eyeLookUpLeft", "eye_R") == 0.0
 
 
+def test_the_eyebrows_ride_on_the_brow_keys(empty_scene):
+    """The eyebrows lie on the skin above the eyes and move as the skin under
+    them does: browInnerUp lifts both inner ends, browDownLeft lowers the
+    left brow alone, browOuterUpRight lifts the right tail."""
+    obj = human.build("Head", "arkit")
+    basis = _key_co(obj, "Basis")
+    brows = {s: _part(obj, f"brow_{s}") for s in "LR"}
+    eye = {s: basis[_part(obj, f"eye_{s}")] for s in "LR"}
+    for s, idx in brows.items():
+        faces = [p for p in obj.data.polygons if set(p.vertices) <= set(idx)]
+        assert len(faces) > 20 and all(obj.data.materials[p.material_index].name == "HumanBrow" for p in faces)
+        # Above the eye, spanning it.
+        assert basis[idx, 2].min() > eye[s][:, 2].max() - 0.002 and basis[idx, 2].max() < eye[s][:, 2].max() + 0.03
+        assert basis[idx, 0].min() < eye[s][:, 0].mean() < basis[idx, 0].max()
+
+    def lift(key, side, end):
+        idx = brows[side]
+        x = np.abs(basis[idx, 0])
+        pick = idx[x <= np.quantile(x, 0.2)] if end == "inner" else idx[x >= np.quantile(x, 0.8)]
+        return (_key_co(obj, key)[pick, 2] - basis[pick, 2]).mean()
+
+    assert lift("browInnerUp", "L", "inner") > 0.002 and lift("browInnerUp", "R", "inner") > 0.002
+    assert lift("browDownLeft", "L", "inner") < -0.002 and abs(lift("browDownLeft", "R", "inner")) < 1e-4
+    assert lift("browOuterUpRight", "R", "outer") > 0.002 and abs(lift("browOuterUpRight", "L", "outer")) < 1e-4
+
+
 def test_visemes_are_mixes_of_the_arkit_keys(empty_scene):
     obj = human.build("Head", "rpm")
     basis = _key_co(obj, "Basis")
