@@ -32,7 +32,7 @@ from .speech import speech_or_refuse
 #: harder than pocketsphinx's defaults makes it about four times faster; the
 #: second (alignment) pass places the phones on every frame again.  Without
 #: the phone lookahead (``pl_window``), which with ``ds`` carries state from
-#: one utterance to the next, a chunk is recognised alike whatever came before.
+#: one utterance to the next, less is carried over (see :data:`_RESET`).
 #: The language model weighs less than pocketsphinx's default (``lw`` 4
 #: against 6.5): the words heard follow the sounds more closely, which is what
 #: the mouth shows (on the spontaneous speech of bench/offscript.py the lips
@@ -61,12 +61,23 @@ def _is_word(name: str) -> bool:
     return not (name.startswith("<") or name.startswith("[") or name.startswith("+"))
 
 
+#: 0.1 s of faint noise, decoded before every chunk.  pocketsphinx carries
+#: state from one utterance to the next (a chunk after a 1.00 s chunk and
+#: after a 1.01 s one is heard differently); after this same short
+#: utterance, a chunk is heard alike whatever came before it, in whichever
+#: process and order the chunks are recognised.
+_RESET = (np.random.default_rng(0).normal(0.0, 30.0, 1600)).astype("<i2").tobytes()
+
+
 def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
     """The words of one chunk: (text, [(phone, first frame, end frame)],
     phones estimated).  Frames count from the chunk's start."""
     decoder, search = _decoder()
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
+        decoder.start_utt()
+        decoder.process_raw(_RESET, full_utt=True)
+        decoder.end_utt()
         decoder.start_utt()
         decoder.process_raw(pcm, full_utt=True)
         decoder.end_utt()
