@@ -2,6 +2,8 @@
 keep their own corrections: no move to a stop's burst, their own boundary
 offsets; English words keep theirs."""
 
+from pathlib import Path
+
 import numpy as np
 
 from addon.engine.alignment.boundaries import shift_boundaries
@@ -10,6 +12,7 @@ from addon.engine.alignment.onsets import place_onsets, sound_onset
 from addon.engine.audio import Audio
 
 RATE = 16000
+FIXTURES = Path(__file__).parent / "fixtures"
 
 
 def _word_after_silence(onset: float = 0.2, length: float = 0.6, hum: float = 0.0, hiss: float = 0.0,
@@ -108,3 +111,34 @@ def test_words_from_ipa_take_their_own_boundary_offsets():
     plain = line()
     shift_boundaries(None, plain, [False, False], english)
     assert plain[0] == result[0] and plain[1][1][1] == 0.81
+
+
+def test_digital_silence_is_not_the_quiet_level():
+    # A gated edit: zeros, then the room's noise, then the voice; the noise is not the onset.
+    snd = _word_after_silence(0.3, length=0.9)
+    x = snd.samples.copy()
+    x[:int(0.1 * RATE)] = 0.0
+    x[int(0.6 * RATE):] = 0.0
+    t = sound_onset(Audio(x, RATE), 0.05, 0.5)
+    assert t is not None and abs(t - 0.3) <= 0.012
+
+
+def test_the_aligner_starts_a_word_from_ipa_at_its_voicing_and_an_english_one_at_its_burst():
+    from addon.engine import audio as audio_mod
+    from addon.engine.alignment import core
+
+    # "Bob bought a map." after 0.34 s of faint noise and 60 ms of voicing (harmonics of 120 Hz) before
+    # its first /b/ is released: a prevoiced /b/.
+    bob = audio_mod.load(FIXTURES / "bob_map.wav")
+    rng = np.random.default_rng(1)
+    t = np.arange(int(0.06 * RATE)) / RATE
+    voicing = sum(0.02 / k * np.sin(2 * np.pi * 120 * k * t) for k in range(1, 8))
+    x = np.concatenate([0.0003 * rng.standard_normal(int(0.34 * RATE)), voicing, bob.samples[int(0.015 * RATE):]])
+    snd = Audio(x.astype(np.float32), RATE)
+    phones = [["B", "AA", "B"], ["B", "AA", "T"], ["AH"], ["M", "AE", "P"]]
+    ipa = core.align(snd, phones, sources=["ipa"] * 4)
+    english = core.align(snd, phones, sources=["cmudict"] * 4)
+    assert abs(ipa.phones[0].start - 0.34) <= 0.012          # with its voicing
+    assert english.phones[0].start >= 0.39                    # at its release
+    unmarked = core.align(snd, phones)
+    assert [(p.phone, p.start, p.end) for p in unmarked.phones] == [(p.phone, p.start, p.end) for p in english.phones]

@@ -16,19 +16,20 @@ The word's first phone after silence (the clip's start, or a pause of
 ``onset.after_gap`` s) therefore starts at an acoustic landmark instead: the
 first moment the level between ``onset.band`` Hz (25 ms Hann windows every
 2 ms, the time of a window its centre) rises to ``onset.rise`` dB above the
-quiet level (10th percentile) of the audio within 15 s, or to
-``onset.below_peak`` dB under its loud level (99th percentile) if that is
-lower; a rise, from a window below that level, not sound already there.  It
-is searched from ``onset.before`` s before the aligned start (not before the
-previous word's end) to ``boundary.min_phone`` s before the phone's end;
-without a rise there the aligned start stays.  The band leaves out the hum
-below 200 Hz and the hiss above 4 kHz that the silence of field recordings
-carries, so voiced and voiceless sounds alike are found where they become
-audible.  The settings are in ``data/timing.json``, chosen on half of
-VoxAngeles' languages and checked on the other half: of the words' first
-phones, 46-48 % started within 20 ms of the hand labels as aligned and
-60-66 % with the English corrections; 80 % do on the tuning half and 68 % on
-the other (within 40 ms: 91 and 89 %).
+quiet level (10th percentile) of the audio within 15 s (digital silence,
+samples of zero, left out), or to ``onset.below_peak`` dB under its loud
+level (99th percentile) if that is lower; a rise, from a window below that
+level, not sound already there.  It is searched from ``onset.before`` s
+before the aligned start (not before the previous word's end) to
+``boundary.min_phone`` s before the phone's end; without a rise there the
+aligned start stays.  The band leaves out the hum below 200 Hz and the
+hiss above 4 kHz that the silence of field recordings carries, so voiced and
+voiceless sounds alike are found where they become audible.  The settings
+are in ``data/timing.json``, chosen on half of VoxAngeles' languages and
+checked on the other half: of the words' first phones, 46-48 % started
+within 20 ms of the hand labels as aligned and 60-66 % with the English
+corrections; 80 % do on the tuning half and 68 % on the other (within 40 ms:
+91 and 89 %).
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from ..pauses import settings
 FROM_IPA = frozenset({"ipa", "espeak"})
 
 _AROUND = 15.0
+_DIGITAL_SILENCE = -100.0     # dB: below this a window holds (next to) nothing but zeros
 
 
 def _settings() -> dict:
@@ -84,10 +86,12 @@ def sound_onset(audio: Audio, start: float, end: float, cfg: dict | None = None)
     last = min(len(audio.samples), int((end + _AROUND) * rate))
     low, high = cfg.get("band", (200.0, 4000.0))
     levels = band_levels(audio.samples[first:last], rate, float(low), float(high), win, hop)
-    if not len(levels):
+    # Digital silence (samples of zero, as an editor's gate leaves) is no measure of the room's quiet.
+    heard = levels[levels > _DIGITAL_SILENCE]
+    if not len(heard):
         return None
-    threshold = min(float(np.percentile(levels, 10)) + float(cfg.get("rise", 20.0)),
-                    float(np.percentile(levels, 99)) - float(cfg.get("below_peak", 10.0)))
+    threshold = min(float(np.percentile(heard, 10)) + float(cfg.get("rise", 20.0)),
+                    float(np.percentile(heard, 99)) - float(cfg.get("below_peak", 10.0)))
     centres = first / rate + np.arange(len(levels)) * step / rate + win / 2
     loud = levels >= threshold
     # A rise: a loud window after a quiet one (sound already there at ``start`` has no onset there).
