@@ -82,6 +82,22 @@ def test_affricates_diphthongs_geminates_and_tones():
     assert to_arpabet("x") == ["HH"]
 
 
+def test_a_word_written_in_ipa_keeps_every_written_segment():
+    # One phone label is one segment: its affricate, diphthong or doubled symbol is one phone.  A word
+    # is segmented as written: two symbols are one phone only when tied or written as one ligature.
+    def word(ipa: str) -> list[str]:
+        return to_arpabet(ipa, word=True)
+
+    assert word("daja") == ["D", "AA", "Y", "AA"] and to_arpabet("daja") == ["D", "AY", "AA"]
+    assert word("tʃa") == ["T", "SH", "AA"]
+    assert word("t͡ʃa") == word("ʧa") == ["CH", "AA"]
+    assert word("baɪ") == ["B", "AA", "IH"] and word("ba͡ɪ") == ["B", "AY"]
+    assert word("ɔ̀ɔ́m") == ["AO", "AO", "M"] and word("matta") == ["M", "AA", "T", "T", "AA"]
+    assert word("maːt") == ["M", "AA", "T"]          # length is a mark, not a segment
+    assert word("kʰɛsəbə") == to_arpabet("kʰɛsəbə")
+    assert word("k͡pa") == ["K", "P", "AA"]           # a tie that makes no English phone: both shown
+
+
 def test_a_symbol_that_is_not_ipa_is_named_with_file_and_time(tmp_path):
     f = tmp_path / "bad.TextGrid"
     f.write_text(grid(["ʁ", "aQ", "n"]), encoding="utf-8")

@@ -39,6 +39,7 @@ the speech and pauses are), :mod:`.decoding` (pocketsphinx passes),
 :mod:`.estimate` (placing by estimate), :mod:`.fillers` (a hesitation
 may be a filler sound), :mod:`.bursts` (a stop after silence starts at its
 release burst), :mod:`.reduced` (a reduced /ð/ keeps its usual length),
+:mod:`.onsets` (a word of another language starts where its sound rises),
 :mod:`.boundaries` (each boundary corrected by the classes of the phones it
 joins), :mod:`.core` (:func:`align`), :mod:`.transcript`
 (:func:`align_audio`: a written transcript rather than phones),

@@ -52,9 +52,21 @@ its aligned start and lasts ``min_phone``; the labial starts there, and no
 offset moves either boundary (the 35 ms of ``plosive>plosive`` would close
 the lips late).  On the development speakers this holds for /t/ only: /d/
 (its closure voiced and heard) and /k/ before a labial fare worse with it.
+
+A phone of a word read from IPA (another language, or a word written
+``/.../``) takes its offset from ``boundary_ipa.shift`` instead: the English
+offsets but for four pairs, and none for the word's first phone after
+silence, which :mod:`.onsets` places.  The four were chosen on VoxAngeles
+(``bench/languages.py``) by tuning each half of its languages alone (5 ms
+steps, pairs seen 20 times, a step kept when it gains two starts) and keeping
+the changes both halves made, at the smaller size: a vowel ends 5 ms earlier
+before a stop and 5 ms later before a nasal, a glide ends 10 ms later before
+a vowel, and a vowel after a vowel starts 10 ms earlier.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -116,21 +128,29 @@ def _unreleased(result: list, estimated: list[bool], stops: set[str], labials: s
             if p in stops and q in labials and abs(b - c) < 1e-6}
 
 
-def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dict | None = None) -> None:
+def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dict | None = None,
+                     from_ipa: Sequence[bool] | None = None, ipa_cfg: dict | None = None) -> None:
     """Move each phone's start (and the end of the phone before it, when
     that phone ends there) by the offset of its class pair, in place; a
     /t/ run into /p b m/ lasts ``min_phone`` and the lips close after it.
 
     ``result`` holds per word a list of (phone, start, end), or None; phones
     of words placed by estimate are left alone, and so is a boundary with
-    such a phone on either side."""
+    such a phone on either side.  A phone of a word of ``from_ipa`` takes
+    its offset from ``ipa_cfg`` (default: ``boundary_ipa`` of the timing
+    settings)."""
     cfg = _settings() if cfg is None else cfg
     table = {str(k): float(v) for k, v in cfg.get("shift", {}).items()}
     default = float(cfg.get("default", 0.0))
+    offsets = {False: (table, default)}
+    if from_ipa is not None and any(from_ipa):
+        ipa_cfg = settings().get("boundary_ipa", {}) if ipa_cfg is None else ipa_cfg
+        offsets[True] = ({str(k): float(v) for k, v in ipa_cfg.get("shift", {}).items()},
+                         float(ipa_cfg.get("default", 0.0)))
     keep = float(cfg.get("min_phone", 0.03))
     unreleased = cfg.get("unreleased", {})
     held = _unreleased(result, estimated, set(unreleased.get("stops", ())), set(unreleased.get("before", ())))
-    if not table and not default and not held:
+    if not any(t or d for t, d in offsets.values()) and not held:
         return
     before = None      # (word, index) of the phone seen last, None when it was estimated
     prev_end = None    # where the phone seen last ends (None: no phone yet)
@@ -151,7 +171,8 @@ def shift_boundaries(audio: Audio, result: list, estimated: list[bool], cfg: dic
             elif joined and before in held:
                 start = min(a, prev[1] + keep)      # ... and the lips close ``keep`` after it
             else:
-                start = _shifted(audio, p, a, b, prev, prev_end, table, default, keep, cfg)
+                shift, fallback = offsets[bool(from_ipa is not None and from_ipa[wi])]
+                start = _shifted(audio, p, a, b, prev, prev_end, shift, fallback, keep, cfg)
             if start != a:
                 ph[k] = (p, start, b)
                 if prev:

@@ -11,10 +11,14 @@ prevoicing of /b d g/, or at the clip's very first frame).
 :func:`refine_stops` moves the start of such a stop to its burst: the
 largest rise of the energy above ``burst.band`` Hz inside the stop's
 interval, when that rise is at least ``burst.min_rise`` dB.  The settings
-are in ``data/timing.json``.
+are in ``data/timing.json``.  Words of other languages, whose phones come
+from IPA, are left to :mod:`.onsets`: their voiced stops are often prevoiced,
+and the prevoicing belongs to the stop.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -67,13 +71,16 @@ def burst_time(audio: Audio, start: float, end: float, cfg: dict | None = None) 
     return float(t[i])
 
 
-def refine_stops(audio: Audio, result: list, estimated: list[bool]) -> None:
+def refine_stops(audio: Audio, result: list, estimated: list[bool],
+                 from_ipa: Sequence[bool] | None = None) -> None:
     """Move the start of every word-initial stop that follows silence (the
     clip's start, or a gap of ``burst.after_gap`` s or more) to its release
     burst, in place (the burst may lie up to ``burst.slack`` s past the
     stop's end; the stop keeps at least ``burst.min_keep`` s).  ``result``
     holds per word a list of (phone, start, end), or None; estimated words
-    are left alone."""
+    are left alone, and so are the words of ``from_ipa`` (phones read from
+    IPA, of other languages, whose voiced stops are often prevoiced and
+    whose start :func:`.onsets.place_onsets` finds)."""
     cfg = _settings()
     prev_end = 0.0
     first = True
@@ -82,7 +89,8 @@ def refine_stops(audio: Audio, result: list, estimated: list[bool]) -> None:
             continue
         p, a, b = ph[0]
         after_silence = first or a - prev_end >= cfg["after_gap"]
-        if p in STOPS and after_silence and not estimated[wi] and b - a > cfg["min_keep"]:
+        other = from_ipa is not None and from_ipa[wi]
+        if p in STOPS and after_silence and not estimated[wi] and not other and b - a > cfg["min_keep"]:
             t = burst_time(audio, a, b + cfg["slack"], cfg)
             if t is not None and t > a:
                 ph[0] = (p, min(t, b - cfg["min_keep"]), b)

@@ -11,6 +11,7 @@ from .bursts import refine_stops
 from .fillers import mark, restore
 from .chunks import _align_chunked
 from .decoding import _whole
+from .onsets import FROM_IPA, place_onsets
 from .estimate import _clean, _estimate
 from .pieces import _align_pieces
 from .reduced import shorten_reduced
@@ -83,9 +84,15 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
         progress(1.0)
 
     restore(result, prons)
-    refine_stops(audio, result, est)
+    # Words read from IPA (other languages) have their own corrections; English ones keep theirs.
+    from_ipa = [s in FROM_IPA for s in sources]
+    refine_stops(audio, result, est, from_ipa)
     shorten_reduced(result, est)
-    shift_boundaries(audio, result, est)
+    if any(from_ipa):
+        place_onsets(audio, result, est, from_ipa)
+        shift_boundaries(audio, result, est, from_ipa=from_ipa)
+    else:
+        shift_boundaries(audio, result, est)
     words: list[AlignedWord] = []
     phones: list[AlignedPhone] = []
     for wi in range(n):

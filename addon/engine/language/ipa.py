@@ -18,6 +18,15 @@ A label is read symbol by symbol (after Unicode decomposition, so ``ã`` is
   that diphthong; any other sequence gives one phone per segment (the
   interval is shared), and a doubled symbol (a geminate written ``tt``) is one
   phone;
+* a whole word written in IPA (``word=True``, a transcript's ``/.../``) is read
+  as phoneticians segment it: every base symbol is a phone of its own, two
+  symbols are one affricate or diphthong only when tied (``t͡ʃ``, ``a͡ɪ``) or
+  written as one ligature (``ʧ``), and a doubled symbol stays two phones
+  (``ɔɔ`` is two vowels, often on two tones).  Each written segment then gets
+  its own start: on VoxAngeles (``bench/languages.py``) the segments merged
+  by the label rules above (``aj``, ``tʃ``, ``ee``) were 2.5 % of the phones,
+  each a start missed, and aligning the segments apart placed their
+  neighbours better too;
 * diacritics and modifier letters (length ``ː``, stress ``ˈ ˌ``, nasal ``̃``,
   palatalisation ``ʲ``, aspiration ``ʰ``, devoicing, syllabicity, ties, tone
   letters ``˥˦˧˨˩`` and tone or stress digits) change nothing the mouth shows,
@@ -35,6 +44,9 @@ from pathlib import Path
 DATA = Path(__file__).parent.parent / "data" / "ipa.json"
 
 #: Modifier letters and marks that carry no visible articulation.
+#: Tie bars: two symbols written as one segment.
+TIES = frozenset("͜͡")
+
 MODIFIERS = set("ˈˌːˑ.‿͜͡ʰʱʲʷˠˤⁿˡʼ̚ᵊ˞-_|‖↗↘ꜛꜜ") | set("˥˦˧˨˩꜒꜓꜔꜕꜖꜀꜁꜂꜃꜄꜅꜆꜇꜈꜉꜊꜋꜌꜍꜎꜏꜐꜑") | set("0123456789")
 
 
@@ -95,20 +107,24 @@ def _symbols(label: str) -> list[tuple[str, set[str]]]:
     return out
 
 
-def to_arpabet(label: str) -> list[str]:
-    """ARPAbet phones for one IPA label (see the module docstring)."""
+def to_arpabet(label: str, word: bool = False) -> list[str]:
+    """ARPAbet phones for one IPA label, or with ``word`` for a whole word
+    written in IPA (see the module docstring)."""
     tab = table()
     syms = _symbols(label)
     if not syms:
         raise UnknownSymbol(label.strip()[:1] or " ", label)
     phones: list[str] = []
     kinds: list[str] = []
+    tied: list[bool] = []
     k = 0
     while k < len(syms):
         ch, marks = syms[k]
-        if k + 1 < len(syms) and ch + syms[k + 1][0] in tab["affricates"]:
+        joins = not word or bool(marks & TIES)
+        if joins and k + 1 < len(syms) and ch + syms[k + 1][0] in tab["affricates"]:
             phones.append(tab["affricates"][ch + syms[k + 1][0]])
             kinds.append("C")
+            tied.append(False)
             k += 2
             continue
         if ch in tab["vowels"]:
@@ -118,20 +134,24 @@ def to_arpabet(label: str) -> list[str]:
         else:
             phones.append(consonant_phone(*tab["consonants"][ch]))
             kinds.append("C")
+        tied.append(joins)
         k += 1
-    # Geminates and doubled vowels: one phone.
+    # Geminates and doubled vowels: one phone (a written word keeps both).
     merged: list[str] = []
     mk: list[str] = []
-    for p, kind in zip(phones, kinds):
-        if merged and merged[-1] == p:
+    mt: list[bool] = []
+    for p, kind, t in zip(phones, kinds, tied):
+        if merged and merged[-1] == p and not word:
             continue
         merged.append(p)
         mk.append(kind)
-    # A vowel and a closer vowel or glide after it: a diphthong when one fits.
+        mt.append(t)
+    # A vowel and a closer vowel or glide after it: a diphthong when one fits
+    # (in a written word, when the two are tied).
     out: list[str] = []
     k = 0
     while k < len(merged):
-        if k + 1 < len(merged) and mk[k] == "V":
+        if k + 1 < len(merged) and mk[k] == "V" and mt[k]:
             d = tab["diphthongs"].get(f"{merged[k]} {merged[k + 1]}")
             if d:
                 out.append(d)

@@ -113,7 +113,7 @@ def ipa_word(tok: str) -> Word:
     :class:`TranscriptError` naming it."""
     body = plain_ipa(tok[1:-1])
     try:
-        phones = ipa.to_arpabet(body)
+        phones = ipa.to_arpabet(body, word=True)
     except ipa.UnknownSymbol as exc:
         raise TranscriptError(f"{tok!r} is not IPA: {exc.symbol!r} (U+{ord(exc.symbol):04X}) is not an IPA "
                               "symbol; write a word's pronunciation between slashes in IPA, e.g. /pɛs/") from None
