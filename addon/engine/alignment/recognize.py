@@ -63,10 +63,16 @@ def _is_word(name: str) -> bool:
 
 def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
     """The words of one chunk: (text, [(phone, first frame, end frame)],
-    phones estimated).  Frames count from the chunk's start."""
+    phones estimated).  Frames count from the chunk's start.  Each pass
+    starts from fresh features (``reinit_feat``): the feature front end
+    otherwise carries state from one utterance to the next, and the same
+    chunk would be heard differently depending on what the process decoded
+    before it (the first chunk of a process unlike the rest, and the words
+    depending on which worker took which chunk)."""
     decoder, search = _decoder()
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
+        decoder.reinit_feat()
         decoder.start_utt()
         decoder.process_raw(pcm, full_utt=True)
         decoder.end_utt()
@@ -77,6 +83,7 @@ def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], 
         return []
     try:
         decoder.set_alignment()
+        decoder.reinit_feat()
         decoder.start_utt()
         decoder.process_raw(pcm, full_utt=True)
         decoder.end_utt()
