@@ -75,6 +75,22 @@ def test_matching_transcript_output_has_no_new_marks():
     assert doc["unscripted"] == []
 
 
+def test_a_stretch_is_heard_alike_whatever_was_recognised_before():
+    from addon.engine.alignment.recognize import recognize_spans
+
+    snd = audio_mod.load(HELLO)
+
+    def heard(a, b):
+        words, phones = recognize_spans(snd, [(a, b)])
+        return [w.text for w in words], [(p.phone, p.start, p.end) for p in phones]
+
+    first = heard(0.0, 2.4)
+    assert first[0]
+    heard(2.4, snd.duration)
+    assert heard(0.0, 2.4) == first     # after other speech
+    assert heard(0.0, 2.4) == first     # after itself
+
+
 def test_appended_words_are_left_unspoken_with_the_mouth_at_rest():
     extra = "purple elephants dance quietly tonight"
     r = analyze(HELLO, "Hello! My name is Bob, and I'm very happy to meet you. " + extra)
