@@ -67,8 +67,9 @@ def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], 
     starts from fresh features (``reinit_feat``): the feature front end
     otherwise carries state from one utterance to the next, and the same
     chunk would be heard differently depending on what the process decoded
-    before it (the first chunk of a process unlike the rest, and the words
-    depending on which worker took which chunk)."""
+    before it (the words depending on which worker took which chunk).  The
+    first stretch a decoder hears still differs a little from later ones
+    (a word edge by a frame), which fresh features do not undo."""
     decoder, search = _decoder()
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
