@@ -18,11 +18,15 @@ On the two long MFA clips (26 s each, reference words):
 * **Appended words**: seven words nobody says added to the transcript:
   how many come back ``spoken: false``, and the share of frames after the
   last spoken word (+0.2 s) where the mouth is at rest;
-* **Cut words**: ten spoken words (the 10 after the first third) removed:
-  the share of their reference speech inside ``unscripted`` spans, and of
-  their reference vowel frames where the mouth is open;
-* **Swapped word**: one word replaced by another: how far (ms) the start of
-  the word before and after it moved against the matching transcript.
+* **Cut words**: ten spoken words (the 10 after the first third; then after
+  a sixth, half and two thirds) removed: the share of their reference speech
+  inside ``unscripted`` spans, and of their reference vowel frames where the
+  mouth is open;
+* **Swapped word**: one word replaced by another (the middle word by
+  "elephant"; then the words at 20, 35, 50, 65 and 80 % of the transcript by
+  a long and a short wrong word): how far (ms) the start of the word before
+  and after it moved against the matching transcript, and in how many of
+  the ten both stayed within 40 ms.
 
     LIPSYNC_DATA=/work/shared/data .venv/bin/python bench/offscript.py
 """
@@ -42,6 +46,9 @@ from addon.engine.language.phonemes import VOWELS
 from addon.engine.pipeline import analyze
 
 APPENDED = "and then the purple elephant quietly danced"
+CUT_AT = (1 / 3, 1 / 6, 1 / 2, 2 / 3)
+SWAP_AT = (0.2, 0.35, 0.5, 0.65, 0.8)
+WRONG = ("elephant", "blue")
 OPEN = 0.2
 
 
@@ -136,44 +143,82 @@ def scripts() -> None:
         print(f"{name:16s} appended: {unheard}/7 spoken false; at rest after the last spoken word "
               f"{rest:.1%} (matching transcript {rest0:.1%}); other words unspoken: "
               f"{sum(not w.spoken for w in words[:-7])}")
-        # Cut words.
+        # Cut words: ten spoken words removed, from a sixth, a third (the
+        # figure the issue tracks), half and two thirds of the way in.
         spoken = _word_spans(ref)
-        k0 = len(spoken) // 3
-        cut = spoken[k0:k0 + 10]
         tokens = text.split()
-        # Remove the same ten words from the transcript: find them in order from the same position.
-        lower = [t.lower().strip(".,!?") for t in tokens]
-        at = next(i for i in range(len(lower) - 9) if lower[i:i + 10] == [c[0].lower() for c in cut])
-        r = analyze(snd, " ".join(tokens[:at] + tokens[at + 10:]))
-        spans = r.alignment.unscripted
-        a, b = cut[0][1], cut[-1][2]
-        grid_t = np.arange(a, b, 0.01)
-        inside = np.zeros(len(grid_t), bool)
-        for s, e, _ in spans:
-            inside |= (grid_t >= s) & (grid_t < e)
-        speech = np.zeros(len(grid_t), bool)
-        for _, s, e in cut:
-            speech |= (grid_t >= s) & (grid_t < e)
-        active = r.curves.max(axis=1) >= OPEN
-        vf = np.concatenate([_frames(r, p.start, p.end) for p in ref.phones
-                             if p.phone in VOWELS and a <= p.start < b] or [np.zeros(0, int)])
-        base_active = base.curves.max(axis=1) >= OPEN
-        print(f"{name:16s} cut {' '.join(c[0] for c in cut)!r}: {inside[speech].mean():.1%} of their speech "
-              f"unscripted; mouth open on {active[vf].mean():.1%} of their vowel frames "
-              f"(matching transcript {base_active[vf].mean():.1%})")
-        # Swapped word: the middle word of the transcript replaced.
+        done: set[int] = set()
+        for share in CUT_AT:
+            _cut(name, snd, ref, base, tokens, spoken, int(len(spoken) * share), share, done)
+        # Swapped word: the middle word of the transcript replaced (the figure
+        # the issue tracks), then a long and a short wrong word at five places.
         mid = len(tokens) // 2
-        swapped = tokens[:mid] + ["elephant"] + tokens[mid + 1:]
-        r = analyze(snd, " ".join(swapped))
-        bw = [w for w in base.alignment.words if not w.recognized]
-        sw = [w for w in r.alignment.words if not w.recognized]
-        if len(bw) == len(sw):
-            k = next(i for i, w in enumerate(sw) if w.text == "elephant")
-            moved = [abs(sw[j].start - bw[j].start) * 1000 for j in (k - 1, k + 1)]
+        moved = _swap(snd, base, tokens, mid, "elephant")
+        if moved is None:
+            print(f"{name:16s} swapped: word counts differ")
+        else:
             print(f"{name:16s} swapped {tokens[mid]!r} -> 'elephant': neighbours moved {moved[0]:.0f} and "
                   f"{moved[1]:.0f} ms")
-        else:
-            print(f"{name:16s} swapped: word counts differ ({len(bw)} vs {len(sw)})")
+        worst = []
+        for share in SWAP_AT:
+            k = int(len(tokens) * share)
+            for wrong in WRONG:
+                m = _swap(snd, base, tokens, k, wrong)
+                worst.append((max(m) if m else float("inf"), f"{tokens[k]}->{wrong}"))
+        within = sum(w <= 40 for w, _ in worst)
+        print(f"{name:16s} swapped at {len(SWAP_AT)} places x {len(WRONG)} words: neighbours within 40 ms "
+              f"in {within} of {len(worst)}; the worst: "
+              + ", ".join(f"{label} {w:.0f} ms" for w, label in sorted(worst, reverse=True)[:3]))
+
+
+def _cut(name, snd, ref, base, tokens, spoken, k0, share, done: set[int]) -> None:
+    """Ten spoken words from ``k0`` removed from the transcript: the share
+    of their reference speech inside ``unscripted`` spans and of their
+    reference vowel frames where the mouth is open.  ``done`` holds the
+    transcript positions cut before (a cut is not measured twice)."""
+    # Remove the same ten words from the transcript: the first ten reference
+    # words from ``k0`` on that the transcript holds in the same order.
+    lower = [t.lower().strip(".,!?") for t in tokens]
+    for k in range(k0, len(spoken) - 9):
+        cut = spoken[k:k + 10]
+        at = next((i for i in range(len(lower) - 9) if lower[i:i + 10] == [c[0].lower() for c in cut]), None)
+        if at is not None:
+            break
+    else:
+        print(f"{name:16s} cut at {share:.2f}: no ten reference words in the transcript's order")
+        return
+    if at in done:
+        print(f"{name:16s} cut at {share:.2f}: the same ten words as above")
+        return
+    done.add(at)
+    r = analyze(snd, " ".join(tokens[:at] + tokens[at + 10:]))
+    a, b = cut[0][1], cut[-1][2]
+    grid_t = np.arange(a, b, 0.01)
+    inside = np.zeros(len(grid_t), bool)
+    for s, e, _ in r.alignment.unscripted:
+        inside |= (grid_t >= s) & (grid_t < e)
+    speech = np.zeros(len(grid_t), bool)
+    for _, s, e in cut:
+        speech |= (grid_t >= s) & (grid_t < e)
+    active = r.curves.max(axis=1) >= OPEN
+    vf = np.concatenate([_frames(r, p.start, p.end) for p in ref.phones
+                         if p.phone in VOWELS and a <= p.start < b] or [np.zeros(0, int)])
+    base_active = base.curves.max(axis=1) >= OPEN
+    print(f"{name:16s} cut at {share:.2f} {' '.join(c[0] for c in cut)!r}: {inside[speech].mean():.1%} of their "
+          f"speech unscripted; mouth open on {active[vf].mean():.1%} of their vowel frames "
+          f"(matching transcript {base_active[vf].mean():.1%})")
+
+
+def _swap(snd, base, tokens, k, wrong) -> tuple[float, float] | None:
+    """How far (ms) the starts of the words before and after transcript word
+    ``k`` move when ``wrong`` replaces it; None if the words differ in number."""
+    r = analyze(snd, " ".join(tokens[:k] + [wrong] + tokens[k + 1:]))
+    bw = [w for w in base.alignment.words if not w.recognized]
+    sw = [w for w in r.alignment.words if not w.recognized]
+    if len(bw) != len(sw):
+        return None
+    j = next(i for i, w in enumerate(sw) if w.text == wrong and bw[i].text != wrong)
+    return tuple(abs(sw[i].start - bw[i].start) * 1000 if 0 <= i < len(sw) else 0.0 for i in (j - 1, j + 1))
 
 
 if __name__ == "__main__":
