@@ -54,28 +54,8 @@ def _decoder():
     if not _loaded:
         decoder = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **DECODER_OPTIONS)
         search = decoder.current_search()
-        # The first utterance in which a decoder hears a word is decoded a
-        # little unlike every later one (a word edge a frame apart): a
-        # synthetic vowel is heard first, so every stretch is decoded alike.
-        decoder.reinit_feat()
-        decoder.start_utt()
-        decoder.process_raw(_warm_up(), full_utt=True)
-        decoder.end_utt()
         _loaded[:] = [decoder, search]
     return _loaded
-
-
-def _warm_up() -> bytes:
-    """0.8 s of a vowel-like buzz (120 Hz, energy near 700 and 1200 Hz)
-    between 0.25 s of silence, 16 kHz 16-bit PCM."""
-    rate, f0 = 16000, 120.0
-    t = np.arange(int(0.8 * rate)) / rate
-    k = np.arange(1, 40)[:, None]
-    weight = (np.exp(-((f0 * k - 700) / 200) ** 2) + 0.6 * np.exp(-((f0 * k - 1200) / 250) ** 2) + 0.2) / k
-    buzz = (weight * np.sin(2 * np.pi * f0 * k * t)).sum(axis=0)
-    buzz = 0.3 * buzz / np.abs(buzz).max() * np.hanning(len(buzz))
-    pad = np.zeros(rate // 4)
-    return (np.concatenate([pad, buzz, pad]) * 32767).astype("<i2").tobytes()
 
 
 def _is_word(name: str) -> bool:
@@ -84,21 +64,17 @@ def _is_word(name: str) -> bool:
 
 #: 0.1 s of faint noise, decoded before every chunk.  pocketsphinx carries
 #: state from one utterance to the next (a chunk after a 1.00 s chunk and
-#: after a 1.01 s one is heard differently); after this same short
-#: utterance, a chunk is heard alike whatever came before it, in whichever
-#: process and order the chunks are recognised.
+#: after a 1.01 s one is heard differently; the first chunk a fresh decoder
+#: hears, differently again), and resetting its features (``reinit_feat``)
+#: alone does not undo it; after both, a chunk is heard alike whatever came
+#: before it, in whichever process and order the chunks are recognised.
 _RESET = (np.random.default_rng(0).normal(0.0, 30.0, 1600)).astype("<i2").tobytes()
 
 
 def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
     """The words of one chunk: (text, [(phone, first frame, end frame)],
-    phones estimated).  Frames count from the chunk's start.  Each pass
-    starts from fresh features (``reinit_feat``): the feature front end
-    otherwise carries state from one utterance to the next, and the same
-    chunk would be heard differently depending on what the process decoded
-    before it (the words depending on which worker took which chunk); the
-    first utterance of a decoder is spent on a synthetic vowel when it is
-    loaded (:func:`_decoder`)."""
+    phones estimated).  Frames count from the chunk's start; what came
+    before it does not count (:data:`_RESET`)."""
     decoder, search = _decoder()
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
@@ -116,7 +92,6 @@ def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], 
         return []
     try:
         decoder.set_alignment()
-        decoder.reinit_feat()
         decoder.start_utt()
         decoder.process_raw(pcm, full_utt=True)
         decoder.end_utt()
