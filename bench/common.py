@@ -68,24 +68,6 @@ def write_wav(path, samples, rate=16000):
 def match(hyp: list, ref: list, same=lambda h, r: h == r) -> list[tuple[int, int]]:
     """Pairs (i, j) of phones that are ``same`` (default: equal) on a minimum
     edit path between the aligned phones ``hyp`` and the reference ``ref``."""
-    n, m = len(hyp), len(ref)
-    cost = np.zeros((n + 1, m + 1))
-    cost[:, 0] = np.arange(n + 1)
-    cost[0, :] = np.arange(m + 1)
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            sub = 0 if same(hyp[i - 1], ref[j - 1]) else 1
-            cost[i, j] = min(cost[i - 1, j] + 1, cost[i, j - 1] + 1, cost[i - 1, j - 1] + sub)
-    pairs = []
-    i, j = n, m
-    while i and j:
-        sub = 0 if same(hyp[i - 1], ref[j - 1]) else 1
-        if cost[i, j] == cost[i - 1, j - 1] + sub:
-            if sub == 0:
-                pairs.append((i - 1, j - 1))
-            i, j = i - 1, j - 1
-        elif cost[i, j] == cost[i - 1, j] + 1:
-            i -= 1
-        else:
-            j -= 1
-    return pairs[::-1]
+    from addon.engine.alignment.verify import edit_path
+
+    return [(i, j) for i, j, equal in edit_path(hyp, ref, same) if equal]

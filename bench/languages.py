@@ -37,6 +37,7 @@ from common import need_data
 
 from addon.engine import analyze
 from addon.engine import audio as audio_mod
+from addon.engine.alignment.verify import edit_path
 from addon.engine.errors import LipSyncError
 from addon.engine.language import ipa
 from addon.engine.language.text import plain_ipa
@@ -70,26 +71,10 @@ def closes_lips(label: str) -> bool:
 
 def match_starts(ref: list[tuple[str, float]], hyp: list[tuple[str, float]]) -> list[float | None]:
     """For each reference phone the start error (s) of the aligned phone it is matched to (None: none),
-    by an edit-distance alignment of the two phone sequences."""
-    n, m = len(ref), len(hyp)
-    cost = np.zeros((n + 1, m + 1))
-    cost[:, 0] = np.arange(n + 1)
-    cost[0, :] = np.arange(m + 1)
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            sub = cost[i - 1, j - 1] + (0.0 if ref[i - 1][0] == hyp[j - 1][0] else 1.0)
-            cost[i, j] = min(sub, cost[i - 1, j] + 1.0, cost[i, j - 1] + 1.0)
-    out: list[float | None] = [None] * n
-    i, j = n, m
-    while i > 0 and j > 0:
-        same = 0.0 if ref[i - 1][0] == hyp[j - 1][0] else 1.0
-        if cost[i, j] == cost[i - 1, j - 1] + same:
-            out[i - 1] = hyp[j - 1][1] - ref[i - 1][1]
-            i, j = i - 1, j - 1
-        elif cost[i, j] == cost[i - 1, j] + 1.0:
-            i -= 1
-        else:
-            j -= 1
+    by an edit-distance alignment of the two phone sequences (a substituted phone counts as matched)."""
+    out: list[float | None] = [None] * len(ref)
+    for i, j, _same in edit_path([p for p, _ in ref], [p for p, _ in hyp]):
+        out[i] = hyp[j][1] - ref[i][1]
     return out
 
 

@@ -77,28 +77,38 @@ def _suspect_runs(words: list[AlignedWord], mask: np.ndarray) -> list[tuple[int,
     return out
 
 
-def _matched(run_phones: list[str], heard: list[str]) -> np.ndarray:
-    """Which of ``run_phones`` are matched, in order, by ``heard`` on a
-    minimum edit path."""
-    n, m = len(run_phones), len(heard)
+def edit_path(a: list, b: list, same=lambda x, y: x == y) -> list[tuple[int, int, bool]]:
+    """The diagonal steps (i, j, ``same(a[i], b[j])``) of a minimum edit path
+    between the sequences ``a`` and ``b`` (substitution, insertion and
+    deletion each cost 1), in order."""
+    n, m = len(a), len(b)
     cost = np.zeros((n + 1, m + 1))
     cost[:, 0] = np.arange(n + 1)
     cost[0, :] = np.arange(m + 1)
     for i in range(1, n + 1):
         for j in range(1, m + 1):
-            sub = 0 if run_phones[i - 1] == heard[j - 1] else 1
+            sub = 0 if same(a[i - 1], b[j - 1]) else 1
             cost[i, j] = min(cost[i - 1, j] + 1, cost[i, j - 1] + 1, cost[i - 1, j - 1] + sub)
-    hit = np.zeros(n, bool)
+    steps = []
     i, j = n, m
     while i and j:
-        sub = 0 if run_phones[i - 1] == heard[j - 1] else 1
+        sub = 0 if same(a[i - 1], b[j - 1]) else 1
         if cost[i, j] == cost[i - 1, j - 1] + sub:
-            hit[i - 1] = sub == 0
+            steps.append((i - 1, j - 1, sub == 0))
             i, j = i - 1, j - 1
         elif cost[i, j] == cost[i - 1, j] + 1:
             i -= 1
         else:
             j -= 1
+    return steps[::-1]
+
+
+def _matched(run_phones: list[str], heard: list[str]) -> np.ndarray:
+    """Which of ``run_phones`` are matched, in order, by ``heard`` on a
+    minimum edit path."""
+    hit = np.zeros(len(run_phones), bool)
+    for i, _j, same in edit_path(run_phones, heard):
+        hit[i] = same
     return hit
 
 
