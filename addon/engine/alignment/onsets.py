@@ -73,19 +73,25 @@ def band_levels(samples: np.ndarray, rate: int, low: float, high: float, win: fl
     return out
 
 
-def sound_onset(audio: Audio, start: float, end: float, cfg: dict | None = None) -> float | None:
+def sound_onset(audio: Audio, start: float, end: float, cfg: dict | None = None,
+                levels: np.ndarray | None = None) -> float | None:
     """The first time in [``start``, ``end``] at which the band level reaches
-    the onset threshold (see the module docstring), or None."""
+    the onset threshold (see the module docstring), or None.  ``levels``:
+    the band levels of the whole clip (:func:`clip_levels`), when several
+    onsets are looked for in it."""
     cfg = cfg or _settings()
     if end < start:
         return None
     rate = audio.rate
     win, hop = float(cfg.get("window", 0.025)), float(cfg.get("hop", 0.002))
     step = max(1, int(round(hop * rate)))
+    w = max(8, int(round(win * rate)))
     first = max(0, int((start - _AROUND) * rate) // step * step)
     last = min(len(audio.samples), int((end + _AROUND) * rate))
-    low, high = cfg.get("band", (200.0, 4000.0))
-    levels = band_levels(audio.samples[first:last], rate, float(low), float(high), win, hop)
+    if levels is None:
+        levels = band_levels(audio.samples[first:last], rate, *_band(cfg), win, hop)
+    else:   # the windows lying wholly in [first, last), on the same grid
+        levels = levels[first // step:max(first // step, (last - w) // step + 1)]
     # Digital silence (samples of zero, as an editor's gate leaves) is no measure of the room's quiet.
     heard = levels[levels > _DIGITAL_SILENCE]
     if not len(heard):
@@ -100,6 +106,18 @@ def sound_onset(audio: Audio, start: float, end: float, cfg: dict | None = None)
     return float(centres[rises[0]]) if len(rises) else None
 
 
+def _band(cfg: dict) -> tuple[float, float]:
+    low, high = cfg.get("band", (200.0, 4000.0))
+    return float(low), float(high)
+
+
+def clip_levels(audio: Audio, cfg: dict | None = None) -> np.ndarray:
+    """The band levels of the whole clip, on the grid :func:`sound_onset` uses."""
+    cfg = cfg or _settings()
+    return band_levels(audio.samples, audio.rate, *_band(cfg), float(cfg.get("window", 0.025)),
+                       float(cfg.get("hop", 0.002)))
+
+
 def place_onsets(audio: Audio, result: list, estimated: list[bool], from_ipa: Sequence[bool]) -> None:
     """Start the first phone of every word of ``from_ipa`` that follows
     silence at its sound's onset, in place (the phone keeps its end and at
@@ -108,6 +126,7 @@ def place_onsets(audio: Audio, result: list, estimated: list[bool], from_ipa: Se
     cfg = _settings()
     keep = float(settings().get("boundary", {}).get("min_phone", 0.03))
     prev_end = None
+    levels = None       # the clip's band levels, computed once, when the first onset is looked for
     for wi, ph in enumerate(result):
         if not ph:
             continue
@@ -115,7 +134,9 @@ def place_onsets(audio: Audio, result: list, estimated: list[bool], from_ipa: Se
         after_silence = prev_end is None or a - prev_end >= float(cfg["after_gap"])
         if from_ipa[wi] and after_silence and not estimated[wi]:
             lo = max(a - float(cfg["before"]), prev_end or 0.0)
-            t = sound_onset(audio, lo, b - keep, cfg)
+            if levels is None:
+                levels = clip_levels(audio, cfg)
+            t = sound_onset(audio, lo, b - keep, cfg, levels)
             if t is not None:
                 ph[0] = (p, t, b)
         prev_end = ph[-1][2]
