@@ -4,13 +4,11 @@ Ogg Opus, MP3, M4A (AAC) and the sound track of MP4, MOV and MKV video.
 
 Each file is made at test time from the sample line (hello.wav, with
 hello.txt), with soundfile (libsndfile) or av (FFmpeg), the decoders the
-engine itself uses (requirements.txt).  A lossy codec changes the sound a
-little, and the aligner moves a boundary by tens of milliseconds on changes
-that small (white noise at -100 dBFS added to the WAV does it too), so each
-file is held to the alignment of *the same sound* stored as a WAV: the
-sound decoded by a second, independent decoder (FFmpeg for what the engine
-reads with libsndfile and the other way round).  Lossless files of the
-line's own rate align exactly as hello.wav does.
+engine itself uses (requirements.txt), and aligned: every phone boundary
+lies within 10 ms of the WAV's alignment, and lossless files of the line's
+own rate align exactly as hello.wav does.  (The aligner hears every clip
+over a fixed noise floor, :data:`addon.engine.audio.FLOOR_DB`; without it a
+lossy codec's rounding in a pause moved boundaries by up to 0.2 s.)
 """
 
 from __future__ import annotations
@@ -160,8 +158,6 @@ def lag_and_likeness(a: np.ndarray, b: np.ndarray, most: int = 400) -> tuple[int
 def test_the_same_line_in_every_format_gives_the_same_alignment(tmp_path, original, case):
     from addon.engine.pipeline import analyze
 
-    import soundfile
-
     ref_audio, ref_result = original
     path = make(tmp_path, case)
     snd = audio.load(path)
@@ -174,13 +170,11 @@ def test_the_same_line_in_every_format_gives_the_same_alignment(tmp_path, origin
 
     result = analyze(str(path), TEXT)
     assert [w.text for w in result.alignment.words] == [w.text for w in ref_result.alignment.words]
-    same, rate = independent_decode(path, CASES[case][3])
-    wav = tmp_path / "same_sound.wav"
-    soundfile.write(str(wav), same, rate, subtype="FLOAT")
-    expected = boundaries(analyze(str(wav), TEXT))
-    assert np.abs(boundaries(result) - expected).max() <= 0.010
+    # Every phone boundary within 10 ms of the WAV's; lossless at the line's own rate, the very same.
+    moved = np.abs(boundaries(result) - boundaries(ref_result))
+    assert moved.max() <= 0.0101, (moved.max(), np.mean(moved > 0.0101))
     if CASES[case][2]:
-        assert np.abs(boundaries(result) - boundaries(ref_result)).max() <= 0.010
+        assert moved.max() == 0.0
 
 
 @pytest.mark.parametrize("case", ["ogg-vorbis", "m4a-aac"])

@@ -118,7 +118,7 @@ _SHARED: dict = {}
 
 
 def _chunk_shared(key: int, t0: float, t1: float):
-    return _recognize_chunk(_SHARED[key].pcm16(t0, t1))
+    return _recognize_chunk(_SHARED[key].pcm16(t0, t1, floor=False))
 
 
 def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: AlignSettings | None = None,
