@@ -295,3 +295,40 @@ def test_the_decoders_are_imported_only_when_a_file_needs_them():
             f"audio.load({str(HELLO)!r}); print('soundfile' in sys.modules, 'av' in sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert r.stdout.split() == ["False", "False"], r.stderr
+
+
+@pytest.mark.parametrize("noise_db", [-90, -70])
+def test_pauses_of_digital_silence_or_of_quiet_noise_align_alike(original, noise_db):
+    """hello.wav's pauses are exact digital silence; filled with white noise
+    (a room's, a codec's rounding), its phones keep their boundaries within
+    10 ms, and a noise gate that zeroes every frame 45 dB under the loud ones
+    changes nothing."""
+    from addon.engine.pipeline import analyze
+
+    _, ref_result = original
+    x = hello()
+    noisy = x + np.random.default_rng(1).standard_normal(len(x)).astype(np.float32) * 10 ** (noise_db / 20)
+    moved = np.abs(boundaries(analyze(audio.from_samples(noisy, RATE), TEXT)) - boundaries(ref_result))
+    assert moved.max() <= 0.0101, moved.max()
+    frame = RATE // 100
+    n = len(noisy) // frame * frame
+    rms = np.sqrt((noisy[:n].reshape(-1, frame) ** 2).mean(axis=1))
+    gated = noisy.copy()
+    gated[:n] *= np.repeat(rms > np.percentile(rms, 95) * 10 ** (-45 / 20), frame)
+    assert np.sum(gated == 0) > 0.2 * len(x)
+    moved = np.abs(boundaries(analyze(audio.from_samples(gated, RATE), TEXT)) - boundaries(ref_result))
+    assert moved.max() <= 0.0101, moved.max()
+
+
+def test_the_floor_under_the_aligner_is_the_same_wherever_a_clip_is_cut_and_follows_its_level():
+    line = audio.load(HELLO).samples
+    snd = audio.Audio(np.concatenate([np.zeros(8000, np.float32), line]), 16000)    # 0.5 s of digital silence first
+    whole = np.frombuffer(snd.pcm16(), "<i2")
+    assert np.array_equal(np.frombuffer(snd.pcm16(1.0, 2.5), "<i2"), whole[16000:40000])
+    floor = whole[:8000].astype(float).std()
+    expected = snd.loud_level() * 10 ** (audio.FLOOR_DB / 20) * 32767
+    assert 0.9 * expected < floor < 1.1 * expected and floor > 10
+    quiet = audio.Audio(snd.samples * 0.1, snd.rate)
+    assert np.abs(np.frombuffer(quiet.pcm16(), "<i2") - 0.1 * whole).max() <= 1.5
+    # Recognition hears the samples as they are.
+    assert not np.frombuffer(snd.pcm16(0.0, 0.5, floor=False), "<i2").any()

@@ -57,18 +57,18 @@ def _speech_share(mask: np.ndarray, w: AlignedWord) -> float:
 def _suspect_runs(words: list[AlignedWord], mask: np.ndarray) -> list[tuple[int, int]]:
     """[first, end) word indices of the runs of suspect words to check: runs
     holding a word placed by estimate, and runs at the transcript's end or
-    start.  A run with an estimated word within :data:`EDGE` words of the end
-    (start) reaches it:
-    appended words may be placed on noise that passes for speech."""
+    start.  A run within :data:`EDGE` words of the end (start) reaches it:
+    appended words may be placed on noise that passes for speech, between
+    the suspects."""
     estimated = np.array([w.estimated for w in words])
     suspect = estimated | np.array([_speech_share(mask, w) < SUSPECT_SPEECH for w in words])
     n = len(words)
     out = []
     for i, j in runs(suspect).tolist():
         has_estimate = bool(estimated[i:j].any())
-        if has_estimate and n - j <= EDGE:
+        if n - j <= EDGE:
             j = n
-        if has_estimate and i <= EDGE:
+        if i <= EDGE:
             i = 0
         if has_estimate or i == 0 or j == n:
             if out and out[-1][1] >= i:
