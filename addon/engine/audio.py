@@ -84,12 +84,18 @@ class Audio:
         alignment over the clip's noise floor (:data:`FLOOR_DB`), for
         recognition (``floor=False``) as they are: the floor's hiss would be
         heard as fricatives there."""
-        a = int(round(start * self.rate))
-        b = len(self.samples) if end is None else int(round(end * self.rate))
-        x = np.clip(np.asarray(self.samples[a:b], np.float64), -1.0, 1.0) * 32767.0
-        if floor:
-            x += floor_noise(a, a + len(x)) * (self.loud_level() * 10.0 ** (FLOOR_DB / 20.0) * 32767.0)
-        return np.clip(np.round(x), -32768, 32767).astype("<i2").tobytes()
+        n = len(self.samples)
+        a = min(n, max(0, int(round(start * self.rate))))
+        b = n if end is None else min(n, max(a, int(round(end * self.rate))))
+        amp = self.loud_level() * 10.0 ** (FLOOR_DB / 20.0) * 32767.0 if floor else 0.0
+        out = np.empty(b - a, "<i2")
+        for i in range(a, b, _BLOCK):     # a block at a time: a long clip is never held as float64
+            j = min(b, i + _BLOCK)
+            x = np.clip(np.asarray(self.samples[i:j], np.float64), -1.0, 1.0) * 32767.0
+            if amp:
+                x += floor_noise(i, j) * amp
+            out[i - a:j - a] = np.clip(np.round(x), -32768, 32767)
+        return out.tobytes()
 
 
 def from_samples(samples: np.ndarray, rate: float) -> Audio:
