@@ -104,18 +104,25 @@ def _finish(decoder, pcm: bytes, first, mode: str):
     return ("phones", used, phones)
 
 
+def phone_alignment(decoder, pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]]]]:
+    """(word, [(phone, first frame, end frame)]) for every entry of the
+    decoder's last hypothesis (words, silences, fillers), from a state-level
+    alignment pass over ``pcm``.  Raises RuntimeError when pocketsphinx
+    finds none."""
+    decoder.set_alignment()
+    decoder.start_utt()
+    decoder.process_raw(pcm, full_utt=True)
+    decoder.end_utt()
+    alignment = decoder.get_alignment()
+    if alignment is None:
+        raise RuntimeError("no sub-word alignment")
+    return [(w.name, [(p.name, p.start, p.start + p.duration) for p in w]) for w in alignment]
+
+
 def _phone_pass(decoder, pcm: bytes, got: list[str]):
     known = set(got)
     try:
-        decoder.set_alignment()
-        decoder.start_utt()
-        decoder.process_raw(pcm, full_utt=True)
-        decoder.end_utt()
-        alignment = decoder.get_alignment()
-        if alignment is None:
-            raise RuntimeError("no sub-word alignment")
-        words = [(base_token(w.name), [(p.name, p.start, p.start + p.duration) for p in w])
-                 for w in alignment if base_token(w.name) in known]
+        words = [(base_token(name), ph) for name, ph in phone_alignment(decoder, pcm) if base_token(name) in known]
     except RuntimeError:
         return None
     if [w[0] for w in words] != got:

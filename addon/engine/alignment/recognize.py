@@ -23,6 +23,7 @@ import numpy as np
 
 from ..audio import Audio
 from .chunks import plan_chunks
+from .decoding import phone_alignment
 from .estimate import _clean, _estimate
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
@@ -91,13 +92,7 @@ def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], 
     if not segs:
         return []
     try:
-        decoder.set_alignment()
-        decoder.start_utt()
-        decoder.process_raw(pcm, full_utt=True)
-        decoder.end_utt()
-        aligned = decoder.get_alignment()
-        words = [(w.name, [(p.name, p.start, p.start + p.duration) for p in w])
-                 for w in (aligned or []) if _is_word(w.name)]
+        words = [(name, phones) for name, phones in phone_alignment(decoder, pcm) if _is_word(name)]
     except RuntimeError:
         words = []
     if [w[0] for w in words] == [s[0] for s in segs]:
