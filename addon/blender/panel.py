@@ -83,6 +83,12 @@ def _convention_text(obj) -> str:
 
 def problems(context) -> list[str]:
     """What stops Generate from working, in words an animator reads."""
+    return checklist(context)[0]
+
+
+def checklist(context) -> tuple[list[str], str]:
+    """(:func:`problems`, a note on where Generate will read the words from
+    when that is not a transcript, or ""), the audio's path found once."""
     st = context.scene.emotive_lipsync
     out = []
     obj, why = _face(context)
@@ -108,9 +114,10 @@ def problems(context) -> list[str]:
         except LipSyncError as exc:
             out.append(str(exc))
     audio_path = _audio(context, out)
+    has_text = _has_text(st, audio_path)
     if st.text_block is not None and not st.text_block.as_string().strip():
         out.append(f"Text block {st.text_block.name} is empty")
-    elif not _has_text(st, audio_path) and st.language.strip():
+    elif not has_text and st.language.strip():
         try:
             lang = resolve_language(st.language)
         except LipSyncError as exc:
@@ -119,7 +126,7 @@ def problems(context) -> list[str]:
             if not lang.is_english:
                 out.append(f"No transcript: a line in {lang.name} needs one (speech is recognised in English "
                            "only)")
-    return out
+    return out, ("" if out or has_text else NO_TRANSCRIPT)
 
 
 def _audio(context, out: list[str] | None = None) -> str | None:
@@ -153,11 +160,7 @@ def _has_text(st, audio_path: str | None) -> bool:
                 (audio_path and sources.has_sidecar_transcript(audio_path)))
 
 
-def transcript_note(context) -> str:
-    """What Generate will read the words from, when that is not a transcript."""
-    if _has_text(context.scene.emotive_lipsync, _audio(context)):
-        return ""
-    return "No transcript: the words will be recognised from the audio"
+NO_TRANSCRIPT = "No transcript: the words will be recognised from the audio"
 
 
 class LIPSYNC_UL_mapping(bpy.types.UIList):
@@ -220,11 +223,10 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
             row.alignment = "RIGHT"
             row.label(text=convention, icon="SHAPEKEY_DATA")
 
-        issues = problems(context)
+        issues, note = checklist(context)
         box = layout.box() if issues else None
         for msg in issues:
             box.label(text=msg, icon="ERROR")
-        note = "" if issues else transcript_note(context)
         if note:
             layout.label(text=note, icon="INFO")
         row = layout.row()

@@ -138,12 +138,26 @@ def has_sidecar_transcript(audio_path: str | None) -> bool:
     if not audio_path:
         return False
     txt = os.path.splitext(audio_path)[0] + ".txt"
+    try:
+        stat = os.stat(txt)
+    except OSError:
+        return False
     if not os.path.isfile(txt):
         return False
+    key = (stat.st_mtime_ns, stat.st_size)
+    known = _SIDECARS.get(txt)
+    if known is not None and known[0] == key:    # the panel asks at every redraw: read a file once per change
+        return known[1]
     try:
-        return bool(read_text_file(txt)[0].strip())
+        found = bool(read_text_file(txt)[0].strip())
     except LipSyncError:
-        return True
+        found = True
+    _SIDECARS[txt] = (key, found)
+    return found
+
+
+#: path -> ((modification time, size), whether it holds text), for :func:`has_sidecar_transcript`.
+_SIDECARS: dict[str, tuple[tuple[int, int], bool]] = {}
 
 
 #: Where the words come from when no transcript is given.

@@ -41,7 +41,7 @@ def test_generate_without_a_transcript_recognises_the_words(scene, tmp_path):
     panel = import_module(MODULE + ".blender.panel")
     _strip_without_transcript(scene, tmp_path)
     assert panel.problems(bpy.context) == []           # Generate is not held back
-    assert "recognised from the audio" in panel.transcript_note(bpy.context)
+    assert "recognised from the audio" in panel.checklist(bpy.context)[1]
     assert bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", mesh="Ada") == {"FINISHED"}
     ada = bpy.data.objects["Ada"]
     moving = 0
@@ -57,7 +57,9 @@ def test_a_transcript_written_later_is_used_instead(scene, tmp_path):
     panel = import_module(MODULE + ".blender.panel")
     _strip_without_transcript(scene, tmp_path)
     (tmp_path / "line.txt").write_text("Hello! My name is Bob.", encoding="utf-8")
-    assert panel.transcript_note(bpy.context) == ""
+    assert panel.checklist(bpy.context)[1] == ""
+    (tmp_path / "line.txt").write_text("  \n", encoding="utf-8")      # emptied: the panel reads it again
+    assert "recognised from the audio" in panel.checklist(bpy.context)[1]
 
 
 def test_command_line_without_a_transcript_says_the_words_were_recognised(scene, tmp_path, capsys):
