@@ -289,3 +289,18 @@ def test_unknown_manifest_columns_are_errors(tmp_path):
     first, second = batch.read_manifest(tmp_path / "m.jsonl")
     assert first.problem.startswith("unknown field 'lang'")
     assert second.problem is None and second.language == "de"
+
+
+def test_unscripted_speech_in_another_language_is_animated_without_english_words():
+    scripted = "Morgen früh bringt meine Mutter Brot und Milch mit."
+    adlib = "Danach gehen wir zusammen in den großen Park und spielen Fußball bis zum Abend."
+    r = analyze(spoken(scripted + " " + adlib, "de"), scripted, language="de")
+    al = r.alignment
+    assert al.unscripted and sum(b - a for a, b, _ in al.unscripted) > 2.0
+    assert all(text == "" for _, _, text in al.unscripted)
+    heard = [w for w in al.words if w.recognized]
+    assert heard and all(w.text == "" for w in heard)
+    assert {p.word_index for p in al.phones} >= {al.words.index(w) for w in heard}   # their phones animate them
+    assert any("English only" in w and "not in the transcript" in w for w in r.warnings)
+    assert [w["word"] for w in r.to_dict()["words"] if not w.get("recognized")] == [
+        "morgen", "früh", "bringt", "meine", "mutter", "brot", "und", "milch", "mit"]

@@ -40,7 +40,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                              f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
                              "lines") from None
     if check_take:
-        verify(snd, al, settings)
+        verify(snd, al, settings, english=lexicon.language.is_english)
     check_transcript_matches(al)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)

@@ -161,9 +161,13 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'s' if n != 1 else ''}"
 
 
-def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None) -> Alignment:
+def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, english: bool = True) -> Alignment:
     """Mark the transcript's unspoken words and recognise the unscripted
-    speech of ``al`` (aligned to ``snd``), in place; returns ``al``."""
+    speech of ``al`` (aligned to ``snd``), in place; returns ``al``.
+
+    Recognition is English: in a line in another language (not ``english``)
+    the unscripted speech is animated from the phones heard, and its words
+    and text are left empty rather than given as English words."""
     settings = settings or AlignSettings()
     if not al.words:
         return al
@@ -201,15 +205,19 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None) -> 
     for p in phones:
         p.word_index = renumber[p.word_index]
     if spans:
+        if not english:
+            for w in found:
+                w.text = ""
         _merge(al, found, phones)
         for t0, t1 in spans:
-            text = " ".join(w.text for w in found if t0 <= w.start < t1)
+            text = " ".join(w.text for w in found if t0 <= w.start < t1 and w.text)
             al.unscripted.append((t0, t1, text))
         seconds = sum(b - a for a, b in spans)
         al.warnings = [w for w in al.warnings if "not covered by the transcript's words" not in w]
         al.notes = [n for n in al.notes if "not covered by the transcript's words" not in n]
         stretches = f"{len(spans)} stretch{'es' if len(spans) != 1 else ''}"
-        note = (f"{seconds:.1f} s of speech not in the transcript ({stretches}), animated from recognition: "
+        how = "recognition" if english else "the sounds the English recogniser heard (no words: it knows English only)"
+        note = (f"{seconds:.1f} s of speech not in the transcript ({stretches}), animated from {how}: "
                 + "; ".join(f"{a:.2f}-{b:.2f} s" + (f" '{t}'" if t else "") for a, b, t in al.unscripted))
         al.notes.append(note)
         al.warnings.append(note)
