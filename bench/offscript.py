@@ -28,6 +28,13 @@ On the two long MFA clips (26 s each, reference words):
   and after it moved against the matching transcript, and in how many of
   the ten both stayed within 40 ms.
 
+On pairs of TIMIT sentences by one speaker (``timit_nltk``), joined:
+
+* **Speech after the script's end** (an ad-lib, the next line left in the
+  take): the first sentence's transcript alone: in how many pairs its words
+  end within 0.1 s of where they end when the sentence is aligned alone,
+  and the share of the second sentence's speech inside ``unscripted``.
+
     LIPSYNC_DATA=/work/shared/data .venv/bin/python bench/offscript.py
 """
 
@@ -39,7 +46,7 @@ import time
 
 import numpy as np
 
-from common import match, reference_phones
+from common import DATA, match, reference_phones
 from addon.engine import audio as audio_mod
 from addon.engine.importers import read_textgrid
 from addon.engine.language.phonemes import VOWELS
@@ -226,6 +233,40 @@ def _swap(snd, base, tokens, k, wrong) -> tuple[float, float] | None:
     return tuple(abs(sw[i].start - bw[i].start) * 1000 if 0 <= i < len(sw) else 0.0 for i in (j - 1, j + 1))
 
 
+def after_the_script() -> None:
+    timit = DATA / "timit_nltk"
+    if not timit.is_dir():
+        print(f"\n({timit} is not here: no speech after the script's end)")
+        return
+    files = sorted(timit.glob("*/*.wav"))
+    kept, inside, pairs = 0, [], 0
+    for a, b in zip(files[::4], files[1::4]):
+        if a.parent != b.parent:
+            continue
+        text = " ".join(a.with_suffix(".txt").read_text().split()[2:])
+        first, second = audio_mod.load(a), audio_mod.load(b)
+        alone = analyze(first, text).alignment.words
+        joined = audio_mod.Audio(np.concatenate([first.samples, second.samples]), first.rate)
+        al = analyze(joined, text).alignment
+        own = [w for w in al.words if not w.recognized]
+        pairs += 1
+        kept += max(abs(w.end - v.end) for w, v in zip(own, alone)) <= 0.1
+        speech = [(first.duration + w.start, first.duration + w.end) for w in analyze(second, " ".join(
+            b.with_suffix(".txt").read_text().split()[2:])).alignment.words]
+        grid = np.arange(first.duration, joined.duration, 0.01)
+        said = np.zeros(len(grid), bool)
+        for s0, s1 in speech:
+            said |= (grid >= s0) & (grid < s1)
+        covered = np.zeros(len(grid), bool)
+        for s0, s1, _ in al.unscripted:
+            covered |= (grid >= s0) & (grid < s1)
+        inside.append(covered[said].mean())
+    print(f"\nSpeech after the script's end ({pairs} pairs of TIMIT sentences, the first one's transcript): "
+          f"its words end within 0.1 s of their own alignment in {kept} of {pairs}; the second sentence's "
+          f"speech inside unscripted {np.mean(inside):.1%} (lowest {min(inside):.1%})")
+
+
 if __name__ == "__main__":
     no_transcript()
     scripts()
+    after_the_script()

@@ -203,3 +203,26 @@ def test_no_transcript_in_another_language_says_recognition_is_english_only():
     with pytest.raises(LipSyncError, match="German needs its transcript.*English only"):
         analyze(HELLO, None, language="de")
 
+
+
+def test_a_line_said_to_its_end_is_not_searched_for_speech_after_it():
+    """The phone loop after the transcript's last word (alignment.tail) takes nothing from a line said as
+    written, and a line whose words all lie on their speech has no unscripted speech to trigger it."""
+    from addon.engine.alignment.model import AlignSettings
+    from addon.engine.alignment.tail import transcript_end
+    from addon.engine.language import Lexicon, normalize
+
+    lexicon = Lexicon()
+    prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(HELLO_TEXT)]
+    snd = audio_mod.load(HELLO)
+    assert transcript_end(snd, prons, AlignSettings()) is None
+    # With the last sentence left out of the transcript, the loop takes it, and the transcript ends at "you".
+    short = HELLO_TEXT.split(".")[0] + "."
+    prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(short)]
+    end = transcript_end(snd, prons, AlignSettings())
+    you = analyze(snd, HELLO_TEXT).alignment.words[11]
+    assert you.text == "you" and end is not None and abs(end - you.end) <= 0.05
+    # The middle cut from the transcript: the line's last words keep their own speech at its end.
+    cut = "Hello! My name is Bob. Please remember my voice."
+    prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(cut)]
+    assert transcript_end(snd, prons, AlignSettings()) is None

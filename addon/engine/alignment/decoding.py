@@ -16,14 +16,16 @@ from .model import FRAME, AlignSettings
 
 
 def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, fillers: bool = False,
-             **extra):
+             more: Sequence[str] = (), **extra):
     """A decoder whose dictionary holds only the given words, as tokens w<i>
-    (with ``fillers``, a hesitation also as a filler: :mod:`.fillers`)."""
+    (with ``fillers``, a hesitation also as a filler: :mod:`.fillers`), and
+    the dictionary lines ``more``."""
     import pocketsphinx
 
     with tempfile.NamedTemporaryFile("w", suffix=".dict", delete=False) as fh:
         for k, ph in enumerate(prons):
             fh.write("".join(line + "\n" for line in dictionary_lines(f"w{first + k}", ph, fillers)))
+        fh.write("".join(line + "\n" for line in more))
         path = fh.name
     try:
         return pocketsphinx.Decoder(
