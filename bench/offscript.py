@@ -30,10 +30,12 @@ On the two long MFA clips (26 s each, reference words):
 
 On pairs of TIMIT sentences by one speaker (``timit_nltk``), joined:
 
-* **Speech after the script's end** (an ad-lib, the next line left in the
-  take): the first sentence's transcript alone: in how many pairs its words
-  end within 0.1 s of where they end when the sentence is aligned alone,
-  and the share of the second sentence's speech inside ``unscripted``.
+* **Speech after the script** (an ad-lib, the next line left in the take):
+  the first sentence's transcript alone: in how many pairs its words start
+  and end within 0.1 s of where they do when the sentence is aligned alone,
+  and the share of the second sentence's speech inside ``unscripted``;
+* **Speech before the script** (a slate, an ad-lib before the line): the
+  same with the second sentence's transcript.
 
     LIPSYNC_DATA=/work/shared/data .venv/bin/python bench/offscript.py
 """
@@ -233,40 +235,53 @@ def _swap(snd, base, tokens, k, wrong) -> tuple[float, float] | None:
     return tuple(abs(sw[i].start - bw[i].start) * 1000 if 0 <= i < len(sw) else 0.0 for i in (j - 1, j + 1))
 
 
-def after_the_script() -> None:
+def _joined(first, second):
+    return audio_mod.Audio(np.concatenate([first.samples, second.samples]), first.rate)
+
+
+def _covered(al, speech, t0, t1) -> float:
+    """The share of the ``speech`` spans' frames in t0..t1 inside ``al.unscripted``."""
+    grid = np.arange(t0, t1, 0.01)
+    said = np.zeros(len(grid), bool)
+    for s0, s1 in speech:
+        said |= (grid >= s0) & (grid < s1)
+    covered = np.zeros(len(grid), bool)
+    for s0, s1, _ in al.unscripted:
+        covered |= (grid >= s0) & (grid < s1)
+    return float(covered[said].mean())
+
+
+def around_the_script() -> None:
     timit = DATA / "timit_nltk"
     if not timit.is_dir():
-        print(f"\n({timit} is not here: no speech after the script's end)")
+        print(f"\n({timit} is not here: no speech before or after the script)")
         return
     files = sorted(timit.glob("*/*.wav"))
-    kept, inside, pairs = 0, [], 0
-    for a, b in zip(files[::4], files[1::4]):
-        if a.parent != b.parent:
-            continue
-        text = " ".join(a.with_suffix(".txt").read_text().split()[2:])
-        first, second = audio_mod.load(a), audio_mod.load(b)
-        alone = analyze(first, text).alignment.words
-        joined = audio_mod.Audio(np.concatenate([first.samples, second.samples]), first.rate)
-        al = analyze(joined, text).alignment
-        own = [w for w in al.words if not w.recognized]
-        pairs += 1
-        kept += max(abs(w.end - v.end) for w, v in zip(own, alone)) <= 0.1
-        speech = [(first.duration + w.start, first.duration + w.end) for w in analyze(second, " ".join(
-            b.with_suffix(".txt").read_text().split()[2:])).alignment.words]
-        grid = np.arange(first.duration, joined.duration, 0.01)
-        said = np.zeros(len(grid), bool)
-        for s0, s1 in speech:
-            said |= (grid >= s0) & (grid < s1)
-        covered = np.zeros(len(grid), bool)
-        for s0, s1, _ in al.unscripted:
-            covered |= (grid >= s0) & (grid < s1)
-        inside.append(covered[said].mean())
-    print(f"\nSpeech after the script's end ({pairs} pairs of TIMIT sentences, the first one's transcript): "
-          f"its words end within 0.1 s of their own alignment in {kept} of {pairs}; the second sentence's "
-          f"speech inside unscripted {np.mean(inside):.1%} (lowest {min(inside):.1%})")
+    pairs = [(a, b) for a, b in zip(files[::4], files[1::4]) if a.parent == b.parent]
+    text = {p: " ".join(p.with_suffix(".txt").read_text().split()[2:]) for pair in pairs for p in pair}
+    for where in ("after", "before"):
+        kept, inside = 0, []
+        for a, b in pairs:
+            first, second = audio_mod.load(a), audio_mod.load(b)
+            line, other, offset = (a, second, 0.0) if where == "after" else (b, first, first.duration)
+            alone = analyze(first if where == "after" else second, text[line]).alignment.words
+            extra = [(w.start, w.end) for w in analyze(other, text[b if where == "after" else a]).alignment.words]
+            al = analyze(_joined(first, second), text[line]).alignment
+            own = [w for w in al.words if not w.recognized]
+            kept += max(max(abs(w.start - offset - v.start), abs(w.end - offset - v.end))
+                        for w, v in zip(own, alone)) <= 0.1
+            if where == "after":
+                inside.append(_covered(al, [(first.duration + s, first.duration + e) for s, e in extra],
+                                       first.duration, first.duration + second.duration))
+            else:
+                inside.append(_covered(al, extra, 0.0, first.duration))
+        print(f"{'Speech ' + where + ' the script':32s} ({len(pairs)} pairs of TIMIT sentences joined, one's "
+              f"transcript): its words within 0.1 s of their own alignment in {kept} of {len(pairs)}; the other "
+              f"sentence's speech inside unscripted {np.mean(inside):.1%} (lowest {min(inside):.1%})")
 
 
 if __name__ == "__main__":
     no_transcript()
     scripts()
-    after_the_script()
+    print()
+    around_the_script()

@@ -313,3 +313,20 @@ def test_unscripted_speech_in_another_language_is_animated_without_english_words
     assert any("English only" in w and "not in the transcript" in w for w in r.warnings)
     assert [w["word"] for w in r.to_dict()["words"] if not w.get("recognized")] == [
         "morgen", "früh", "bringt", "meine", "mutter", "brot", "und", "milch", "mit"]
+
+
+def test_speech_before_the_script_does_not_pull_its_first_words():
+    """An ad-lib (or a slate) before the line: the transcript's words stay on their own speech
+    (alignment.edges), and the ad-lib is unscripted."""
+    scripted = "Morgen früh bringt meine Mutter Brot und Milch mit."
+    adlib = "Danach gehen wir zusammen in den großen Park und spielen Fußball bis zum Abend."
+    snd = spoken(adlib + " " + scripted, "de")
+    before = spoken(adlib, "de").duration - 0.3     # where the ad-lib ends, about
+    r = analyze(snd, scripted, language="de")
+    words = [w for w in r.alignment.words if not w.recognized]
+    assert [w.text for w in words][0] == "morgen" and words[0].start >= before - 0.1, words[0]
+    grid = np.arange(0.4, before - 0.2, 0.01)
+    inside = np.zeros(len(grid), bool)
+    for a, b, _ in r.alignment.unscripted:
+        inside |= (grid >= a) & (grid < b)
+    assert inside.mean() >= 0.9, inside.mean()

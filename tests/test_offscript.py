@@ -205,24 +205,25 @@ def test_no_transcript_in_another_language_says_recognition_is_english_only():
 
 
 
-def test_a_line_said_to_its_end_is_not_searched_for_speech_after_it():
-    """The phone loop after the transcript's last word (alignment.tail) takes nothing from a line said as
-    written, and a line whose words all lie on their speech has no unscripted speech to trigger it."""
+def test_the_loops_around_the_script_take_only_speech_it_does_not_hold():
+    """The phone loops before the transcript's first word and after its last (alignment.edges) take
+    nothing from a line said as written, the last sentence of a line whose transcript leaves it out, and
+    nothing from a line whose middle was cut from the transcript."""
+    from addon.engine.alignment.edges import script_bounds
     from addon.engine.alignment.model import AlignSettings
-    from addon.engine.alignment.tail import transcript_end
     from addon.engine.language import Lexicon, normalize
 
     lexicon = Lexicon()
-    prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(HELLO_TEXT)]
     snd = audio_mod.load(HELLO)
-    assert transcript_end(snd, prons, AlignSettings()) is None
-    # With the last sentence left out of the transcript, the loop takes it, and the transcript ends at "you".
-    short = HELLO_TEXT.split(".")[0] + "."
-    prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(short)]
-    end = transcript_end(snd, prons, AlignSettings())
-    you = analyze(snd, HELLO_TEXT).alignment.words[11]
-    assert you.text == "you" and end is not None and abs(end - you.end) <= 0.05
-    # The middle cut from the transcript: the line's last words keep their own speech at its end.
-    cut = "Hello! My name is Bob. Please remember my voice."
-    prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(cut)]
-    assert transcript_end(snd, prons, AlignSettings()) is None
+    words = analyze(snd, HELLO_TEXT).alignment.words
+
+    def bounds(text):
+        prons = [(lambda p: p.aligned or p.phones)(lexicon.pronounce(w)) for w in normalize(text)]
+        return script_bounds(snd, prons, AlignSettings())
+
+    assert bounds(HELLO_TEXT) == (None, None)
+    start, end = bounds(HELLO_TEXT.split(".")[0] + ".")               # "... to meet you."
+    assert start is None and end is not None and abs(end - words[11].end) <= 0.05
+    start, end = bounds(HELLO_TEXT[HELLO_TEXT.index("and"):])         # "and I'm very happy ..."
+    assert end is None and start is not None and abs(start - words[5].start) <= 0.05
+    assert bounds("Hello! My name is Bob. Please remember my voice.") == (None, None)

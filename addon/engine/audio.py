@@ -79,10 +79,13 @@ class Audio:
             self._loud = float(np.percentile(np.concatenate(rms), _LEVEL_PERCENTILE)) if rms else 0.0
         return self._loud
 
-    def head(self, end: float) -> Audio:
-        """The clip's first ``end`` s, heard over the whole clip's noise floor."""
+    def within(self, start: float, end: float) -> Audio:
+        """The clip up to ``end`` s, silent before ``start`` s, heard over the
+        whole clip's noise floor."""
         n = min(len(self.samples), max(1, int(round(end * self.rate))))
-        return Audio(np.asarray(self.samples[0:n], np.float32), self.rate, list(self.notes), self.loud_level())
+        x = np.array(self.samples[0:n], np.float32)
+        x[:min(n, max(0, int(round(start * self.rate))))] = 0.0
+        return Audio(x, self.rate, list(self.notes), self.loud_level())
 
     def pcm16(self, start: float = 0.0, end: float | None = None, floor: bool = True) -> bytes:
         """16-bit samples of start..end s for pocketsphinx; for forced

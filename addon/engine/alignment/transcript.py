@@ -14,17 +14,14 @@ import os
 from collections.abc import Callable
 from concurrent.futures.process import BrokenProcessPool
 
-import numpy as np
-
 from .. import audio as audio_mod
 from ..audio import Audio
 from ..errors import AlignmentError
 from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words
 from .core import align, check_transcript_matches
-from .model import FRAME, AlignSettings, Alignment
-from .speech import frame_levels, speech_mask
-from .tail import transcript_end
-from .verify import edit_path, verify
+from .edges import edges, said_at_the_end
+from .model import AlignSettings, Alignment
+from .verify import verify
 
 
 def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
@@ -52,15 +49,15 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     if check_take:
         english = lexicon.language.is_english
         verify(snd, al, settings, english=english)
-        end = _script_ends_early(snd, al, phones, settings)
-        if end is not None:
-            # Speech after the transcript's end (:mod:`.tail`): the transcript is aligned up to where
-            # its last word ends, and the take checked again over the whole clip.
-            ended = run(snd.head(end + TAIL_MARGIN))
-            ended.duration = snd.duration
-            verify(snd, ended, settings, english=english)
-            if not _said_at_the_end(al, ended, end):
-                al = ended
+        bounds = edges(snd, al, phones, settings)
+        if bounds is not None:
+            # Speech before or after the script (:mod:`.edges`): the transcript is aligned to the
+            # stretch between its edges, and the take checked again over the whole clip.
+            again = run(snd.within(*bounds))
+            again.duration = snd.duration
+            verify(snd, again, settings, english=english)
+            if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
+                al = again
     check_transcript_matches(al)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
@@ -71,54 +68,6 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         al.notes.insert(0, warning)
         al.warnings.insert(0, warning)
     return al
-
-
-#: Room (s) left after the transcript's last word when speech follows it (:mod:`.tail`).
-TAIL_MARGIN = 0.1
-#: The transcript ends early only where its last word moves back by more than this (s).
-TAIL_SHIFT = 0.1
-#: Speech after the script pulls its last few words: an early end moves at most this many (speech
-#: cut from the middle of a transcript leaves its last words at the clip's end, where the loop of
-#: :mod:`.tail` may take them too).
-TAIL_WORDS = 3
-#: The words an early end moves are heard at the clip's end in this share of their phones: they
-#: were said there, and the first alignment stands.
-TAIL_HEARD = 0.5
-#: How far (s) past the loop's start the transcript's end may reach, to the next pause.
-TAIL_REACH = 0.3
-
-
-def _script_ends_early(snd: Audio, al: Alignment, phones: list[list[str]], settings: AlignSettings) -> float | None:
-    """Where the transcript ends, when the check of the take found unscripted
-    speech and speech after the transcript's end pulls its last word more than
-    :data:`TAIL_SHIFT` s later (:func:`.tail.transcript_end`); else None."""
-    script = [w for w in al.words if w.spoken and not w.recognized]
-    if not al.unscripted or not script:
-        return None
-    end = transcript_end(snd, phones, settings)
-    if end is None or end > max(w.end for w in script) - TAIL_SHIFT:
-        return None
-    if sum(w.end > end + TAIL_SHIFT for w in script) > TAIL_WORDS:
-        return None
-    # The loop may take the last word's fading end: up to TAIL_REACH s more, to the next pause.
-    mask, _ = speech_mask(frame_levels(snd), snd)
-    first, last = int(round(end / FRAME)), int(round((end + TAIL_REACH) / FRAME))
-    pause = np.flatnonzero(~mask[first:last])
-    return (first + pause[0]) * FRAME if len(pause) else end + TAIL_REACH - TAIL_MARGIN
-
-
-def _said_at_the_end(first: Alignment, ended: Alignment, end: float) -> bool:
-    """Whether the words an early ``end`` moves are heard at the end of the
-    clip after all: :data:`TAIL_HEARD` of their phones matched, in order, by
-    the last phones recognised there (twice as many).  Speech cut from the
-    middle of a transcript leaves its last words at the clip's end, where
-    the phone loop of :mod:`.tail` may take them too."""
-    moved = [p for w in first.words if w.spoken and not w.recognized and w.end > end + TAIL_SHIFT for p in w.phones]
-    heard = [p for w in ended.words if w.recognized and w.start >= end for p in w.phones][-2 * len(moved):]
-    if not moved or not heard:
-        return False
-    matched = sum(same for _, _, same in edit_path(moved, heard))
-    return matched >= TAIL_HEARD * len(moved)
 
 
 def _show(al: Alignment, prons: list[Pronunciation]) -> None:
