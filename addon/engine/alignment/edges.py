@@ -112,7 +112,7 @@ def edges(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
         return None
     mask, _ = speech_mask(frame_levels(snd), snd)
     if start is not None:    # a loop may take a word's first sound: back to the pause before, within REACH
-        first = int(round(start / FRAME))
+        first = min(len(mask) - 1, int(round(start / FRAME)))
         pause = [k for k in range(first, max(-1, first - int(round(REACH / FRAME))), -1) if not mask[k]]
         start = max(0.0, (pause[0] + 1) * FRAME - MARGIN if pause else start - REACH)
     if end is not None:      # or its fading end: on to the next pause, within REACH

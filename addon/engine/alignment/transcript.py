@@ -16,7 +16,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 from .. import audio as audio_mod
 from ..audio import Audio
-from ..errors import AlignmentError
+from ..errors import AlignmentError, LipSyncError
 from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words
 from .core import align, check_transcript_matches
 from .edges import edges, said_at_the_end
@@ -53,11 +53,15 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         if bounds is not None:
             # Speech before or after the script (:mod:`.edges`): the transcript is aligned to the
             # stretch between its edges, and the take checked again over the whole clip.
-            again = run(snd.within(*bounds))
-            again.duration = snd.duration
-            verify(snd, again, settings, english=english)
-            if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
-                al = again
+            try:
+                again = run(snd.within(*bounds))
+            except LipSyncError:      # the stretch cannot hold the transcript after all: the first one stands
+                again = None
+            if again is not None:
+                again.duration = snd.duration
+                verify(snd, again, settings, english=english)
+                if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
+                    al = again
     check_transcript_matches(al)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
