@@ -227,3 +227,19 @@ def test_the_loops_around_the_script_take_only_speech_it_does_not_hold():
     start, end = bounds(HELLO_TEXT[HELLO_TEXT.index("and"):])         # "and I'm very happy ..."
     assert end is None and start is not None and abs(start - words[5].start) <= 0.05
     assert bounds("Hello! My name is Bob. Please remember my voice.") == (None, None)
+
+
+def test_a_word_squeezed_against_the_words_off_the_speech_at_the_end_is_checked_with_them():
+    from addon.engine.alignment.model import AlignedWord
+    from addon.engine.alignment.verify import _suspect_runs
+
+    mask = np.zeros(300, bool)
+    mask[:150] = True                                      # speech for 1.5 s, then noise
+    words = [AlignedWord(f"w{k}", 0.2 * k, 0.2 * k + 0.2, ["W", "ER", "D"]) for k in range(5)]
+    words += [AlignedWord("thanks", 1.0, 1.4, ["TH", "AE", "NG", "K", "S"]),
+             AlignedWord("and", 1.4, 1.49, ["AH", "N", "D"]),      # 30 ms a phone, on the last word's sound
+             AlignedWord("then", 1.6, 1.9, ["DH", "EH", "N"]),
+             AlignedWord("purple", 1.9, 2.5, ["P", "ER", "P", "AH", "L"])]
+    assert _suspect_runs(words, mask) == [(6, 9)]
+    words[6].end = 1.6                                     # said at an ordinary pace: not taken in
+    assert _suspect_runs(words, mask) == [(7, 9)]

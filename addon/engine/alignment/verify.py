@@ -33,6 +33,8 @@ from .speech import frame_levels, runs, speech_mask
 
 #: A word lying on less speech than this share of its frames is a suspect.
 SUSPECT_SPEECH = 0.5
+#: A word of at most this many frames per phone (the decoder's shortest) is squeezed.
+SQUEEZED_FRAMES = 3
 #: A word is heard when at least this share of its phones is matched.
 HEARD = 0.5
 #: A checked run this close to the transcript's end (start), in words, reaches it.
@@ -54,12 +56,19 @@ def _speech_share(mask: np.ndarray, w: AlignedWord) -> float:
     return float(part.mean()) if len(part) else 0.0
 
 
+def _squeezed(w: AlignedWord) -> bool:
+    """Whether every phone of ``w`` has the decoder's shortest length (3 frames)."""
+    return len(w.phones) >= 2 and w.end - w.start <= (SQUEEZED_FRAMES * len(w.phones) + 0.5) * FRAME
+
+
 def _suspect_runs(words: list[AlignedWord], mask: np.ndarray) -> list[tuple[int, int]]:
     """[first, end) word indices of the runs of suspect words to check: runs
     holding a word placed by estimate, and runs at the transcript's end or
     start.  A run within :data:`EDGE` words of the end (start) reaches it:
     appended words may be placed on noise that passes for speech, between
-    the suspects."""
+    the suspects; and a run at the end takes in the words squeezed against
+    it (each phone as short as the decoder makes one), which the aligner
+    puts on the last sound of the last word said."""
     estimated = np.array([w.estimated for w in words])
     suspect = estimated | np.array([_speech_share(mask, w) < SUSPECT_SPEECH for w in words])
     n = len(words)
@@ -71,6 +80,8 @@ def _suspect_runs(words: list[AlignedWord], mask: np.ndarray) -> list[tuple[int,
         if i <= EDGE:
             i = 0
         if has_estimate or i == 0 or j == n:
+            while j == n and i > 0 and _squeezed(words[i - 1]):
+                i -= 1      # a word squeezed against the run at the end: the first of the appended words
             if out and out[-1][1] >= i:
                 i = out.pop()[0]
             out.append((i, j))
