@@ -35,7 +35,9 @@ On pairs of TIMIT sentences by one speaker (``timit_nltk``), joined:
   and end within 0.1 s of where they do when the sentence is aligned alone,
   and the share of the second sentence's speech inside ``unscripted``;
 * **Speech before the script** (a slate, an ad-lib before the line): the
-  same with the second sentence's transcript.
+  same with the second sentence's transcript;
+* **Another line's transcript**: every sentence with its own transcript and
+  with another's: how many are refused, warned, or aligned without a word.
 
     LIPSYNC_DATA=/work/shared/data .venv/bin/python bench/offscript.py
 """
@@ -50,6 +52,7 @@ import numpy as np
 
 from common import DATA, match, reference_phones
 from addon.engine import audio as audio_mod
+from addon.engine.errors import LipSyncError
 from addon.engine.importers import read_textgrid
 from addon.engine.language.phonemes import VOWELS
 from addon.engine.pipeline import analyze
@@ -280,8 +283,32 @@ def around_the_script() -> None:
               f"sentence's speech inside unscripted {np.mean(inside):.1%} (lowest {min(inside):.1%})")
 
 
+def another_line() -> None:
+    """Each TIMIT sentence with its own transcript and with another sentence's (seven on): how many are
+    refused, and how many warned that the transcript may belong to another recording."""
+    timit = DATA / "timit_nltk"
+    if not timit.is_dir():
+        return
+    files = sorted(timit.glob("*/*.wav"))
+    texts = [" ".join(f.with_suffix(".txt").read_text().split()[2:]) for f in files]
+
+    def outcome(path, text) -> str:
+        try:
+            r = analyze(str(path), text)
+        except LipSyncError:
+            return "refused"
+        return "warned" if any("belong to this recording" in w for w in r.warnings) else "aligned"
+
+    for label, pairs in (("its own transcript", zip(files, texts)),
+                         ("another sentence's", [(f, texts[(k + 7) % len(texts)]) for k, f in enumerate(files)])):
+        got = [outcome(f, t) for f, t in pairs]
+        print(f"{len(got)} TIMIT sentences with {label}: refused {got.count('refused')}, warned "
+              f"{got.count('warned')}, aligned without a word {got.count('aligned')}")
+
+
 if __name__ == "__main__":
     no_transcript()
     scripts()
     print()
     around_the_script()
+    another_line()

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
+import numpy as np
+
 from ..audio import Audio
 from ..errors import AlignmentError, AudioError, TranscriptError
 from .boundaries import shift_boundaries
@@ -109,9 +111,21 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     return Alignment(words, phones, audio.duration, warnings + notes, warnings)
 
 
-def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 0.5) -> None:
+#: A transcript forced onto speech it does not hold squeezes its phones to the decoder's shortest
+#: length (3 frames).  Share of the script's phones that short, over at least SQUEEZE_PHONES phones,
+#: from which the transcript is refused, and from which a warning asks: 0.05-0.31 on recorded
+#: lines with their own transcripts, 0.26-0.65 with another line's, 0.80 on bob_map.wav with another.
+SQUEEZE_REFUSED, SQUEEZE_WARNED, SQUEEZE_PHONES = 0.6, 0.45, 10
+
+
+def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 0.5,
+                             squeeze: bool = True) -> None:
     """Raise :class:`AlignmentError` when most of the words could only be
-    placed by estimate: the transcript probably belongs to other audio."""
+    placed by estimate, could not be heard, or (with ``squeeze``: English
+    lines, where the acoustic model is the speech's own; words read from
+    IPA are left out) had their phones squeezed to the shortest length: the
+    transcript probably belongs to other audio.  A share of squeezed phones
+    that is only high is a warning."""
     share = alignment.n_estimated / max(1, len(alignment.phones))
     if share > max_estimated_share and len(alignment.words) > 3:
         raise AlignmentError(
@@ -123,3 +137,15 @@ def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 
         raise AlignmentError(
             f"{unheard:.0%} of the transcript's words could not be aligned to the audio nor heard in it: "
             "does the transcript belong to this recording?")
+    own = {k for k, w in enumerate(alignment.words) if not w.recognized and w.source not in FROM_IPA}
+    lengths = np.array([p.end - p.start for p in alignment.phones if p.word_index in own and not p.estimated])
+    if not squeeze or len(lengths) < SQUEEZE_PHONES:
+        return
+    squeezed = float(np.mean(lengths <= 3.5 * FRAME))
+    said = (f"{squeezed:.0%} of the transcript's phonemes had to be squeezed to the shortest length the aligner "
+            "gives one: does the transcript belong to this recording?")
+    if squeezed >= SQUEEZE_REFUSED:
+        raise AlignmentError(f"the transcript could not be aligned to the audio: {said}")
+    if squeezed >= SQUEEZE_WARNED:
+        alignment.notes.append(said)
+        alignment.warnings.append(said)

@@ -62,7 +62,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                 verify(snd, again, settings, english=english)
                 if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
                     al = again
-    check_transcript_matches(al)
+    check_transcript_matches(al, squeeze=lexicon.language.is_english)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
     if skipped:
