@@ -598,3 +598,34 @@ def test_aligner_running_out_of_memory_is_an_error_not_a_traceback(tmp_path, mon
     err = capsys.readouterr().err
     assert rc == 1 and "Traceback" not in err
     assert "error: the aligner ran out of memory" in err and "split the recording" in err
+
+
+@pytest.mark.parametrize("squeezed,outcome", [(12, "refused"), (10, "warned"), (6, "aligned")])
+def test_a_transcript_squeezed_into_the_speech_is_refused_or_warned(squeezed, outcome):
+    """20 phonemes, ``squeezed`` of them at the aligner's shortest length (30 ms), the others 80 ms."""
+    from addon.engine.alignment.core import check_transcript_matches
+    from addon.engine.alignment.model import AlignedPhone, AlignedWord, Alignment
+    from addon.engine.errors import AlignmentError
+
+    def alignment(source="cmudict"):
+        phones, t = [], 0.0
+        for k in range(20):
+            length = 0.03 if k < squeezed else 0.08
+            phones.append(AlignedPhone("AH", t, t + length, k // 4))
+            t += length
+        words = [AlignedWord(f"w{i}", phones[4 * i].start, phones[4 * i + 3].end, ["AH"] * 4, source)
+                 for i in range(5)]
+        return Alignment(words, phones, t)
+
+    al = alignment()
+    if outcome == "refused":
+        with pytest.raises(AlignmentError, match="could not be aligned.*60% .*squeezed.*belong to this recording"):
+            check_transcript_matches(al)
+    else:
+        check_transcript_matches(al)
+        warned = [w for w in al.warnings if "squeezed" in w]
+        assert warned == (["50% of the transcript's phonemes had to be squeezed to the shortest length the aligner "
+                           "gives one: does the transcript belong to this recording?"] if outcome == "warned" else [])
+    # Lines not in English, and words read from IPA, are not judged so: their phones are the nearest English ones.
+    check_transcript_matches(alignment(), squeeze=False)
+    check_transcript_matches(alignment("ipa"))
