@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 import tempfile
 from dataclasses import dataclass
 
@@ -139,12 +140,12 @@ def has_sidecar_transcript(audio_path: str | None) -> bool:
         return False
     txt = os.path.splitext(audio_path)[0] + ".txt"
     try:
-        stat = os.stat(txt)
+        info = os.stat(txt)
     except OSError:
         return False
-    if not os.path.isfile(txt):
+    if not stat.S_ISREG(info.st_mode):
         return False
-    key = (stat.st_mtime_ns, stat.st_size)
+    key = (info.st_mtime_ns, info.st_size)
     known = _SIDECARS.get(txt)
     if known is not None and known[0] == key:    # the panel asks at every redraw: read a file once per change
         return known[1]

@@ -17,7 +17,7 @@ from .onsets import FROM_IPA, place_onsets
 from .estimate import _clean, _estimate
 from .pieces import _align_pieces
 from .reduced import shorten_reduced
-from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
+from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment, at_shortest
 from .parallel import _pool
 from .stream import align_stream
 from .speech import _speech_spans, speech_or_refuse, unspoken_speech
@@ -138,10 +138,10 @@ def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 
             f"{unheard:.0%} of the transcript's words could not be aligned to the audio nor heard in it: "
             "does the transcript belong to this recording?")
     own = {k for k, w in enumerate(alignment.words) if not w.recognized and w.source not in FROM_IPA}
-    lengths = np.array([p.end - p.start for p in alignment.phones if p.word_index in own and not p.estimated])
+    lengths = [p.end - p.start for p in alignment.phones if p.word_index in own and not p.estimated]
     if not squeeze or len(lengths) < SQUEEZE_PHONES:
         return
-    squeezed = float(np.mean(lengths <= 3.5 * FRAME))
+    squeezed = float(np.mean([at_shortest(length) for length in lengths]))
     said = (f"{squeezed:.0%} of the transcript's phonemes had to be squeezed to the shortest length the aligner "
             "gives one: does the transcript belong to this recording?")
     if squeezed >= SQUEEZE_REFUSED:

@@ -8,6 +8,14 @@ from ..language.phonemes import VOWELS
 
 
 FRAME = 0.01  # pocketsphinx's frame period (100 frames per second)
+#: The shortest a phone can be aligned: one frame for each of its HMM's 3 states.
+SHORTEST_FRAMES = 3
+
+
+def at_shortest(seconds: float, phones: int = 1) -> bool:
+    """Whether ``phones`` phones lasting ``seconds`` in all each have the
+    shortest length the decoder gives one (:data:`SHORTEST_FRAMES`)."""
+    return seconds <= (SHORTEST_FRAMES * phones + 0.5) * FRAME
 
 #: Typical duration of a phone, seconds, for estimates and for splitting.
 TYPICAL_DURATION = {"vowel": 0.10, "diphthong": 0.14, "consonant": 0.07}

@@ -45,9 +45,9 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                                  f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
                                  "lines") from None
 
+    english = lexicon.language.is_english
     al = run(snd, progress)
     if check_take:
-        english = lexicon.language.is_english
         verify(snd, al, settings, english=english)
         bounds = edges(snd, al, phones, settings)
         if bounds is not None:
@@ -62,7 +62,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                 verify(snd, again, settings, english=english)
                 if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
                     al = again
-    check_transcript_matches(al, squeeze=lexicon.language.is_english)
+    check_transcript_matches(al, squeeze=english)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
     if skipped:

@@ -27,14 +27,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..audio import Audio
-from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
+from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment, at_shortest
 from .recognize import recognize_spans
 from .speech import frame_levels, runs, speech_mask
 
 #: A word lying on less speech than this share of its frames is a suspect.
 SUSPECT_SPEECH = 0.5
-#: A word of at most this many frames per phone (the decoder's shortest) is squeezed.
-SQUEEZED_FRAMES = 3
 #: A word is heard when at least this share of its phones is matched.
 HEARD = 0.5
 #: A checked run this close to the transcript's end (start), in words, reaches it.
@@ -57,8 +55,8 @@ def _speech_share(mask: np.ndarray, w: AlignedWord) -> float:
 
 
 def _squeezed(w: AlignedWord) -> bool:
-    """Whether every phone of ``w`` has the decoder's shortest length (3 frames)."""
-    return len(w.phones) >= 2 and w.end - w.start <= (SQUEEZED_FRAMES * len(w.phones) + 0.5) * FRAME
+    """Whether every phone of ``w`` has the decoder's shortest length."""
+    return len(w.phones) >= 2 and at_shortest(w.end - w.start, len(w.phones))
 
 
 def _suspect_runs(words: list[AlignedWord], mask: np.ndarray) -> list[tuple[int, int]]:
