@@ -141,6 +141,32 @@ def test_cut_words_come_back_as_unscripted_speech():
     assert any("not in the transcript" in w for w in r.warnings)
 
 
+def test_a_line_cut_from_the_middle_of_the_transcript_leaves_the_words_around_it_in_place():
+    """Three lines in one take, the middle one cut from the transcript: it is unscripted speech, and
+    the words on either side keep to their own speech (the first alignment pulled "maybe Bobby" 5 s
+    early, over the cut line: alignment.edges.left_out)."""
+    first, cut, last = (audio_mod.load(p) for p in (FIXTURES / "bob_map.wav", HELLO, FIXTURES / "fast_bilabials.wav"))
+    texts = [(FIXTURES / name).read_text(encoding="utf-8").strip() for name in ("bob_map.txt", "fast_bilabials.txt")]
+    take = audio_mod.Audio(np.concatenate([first.samples, cut.samples, last.samples]), first.rate)
+    r = analyze(take, " ".join(texts))
+    own = [w for w in r.alignment.words if not w.recognized]
+    offset = first.duration + cut.duration
+    alone = [(w.start, w.end) for w in analyze(first, texts[0]).alignment.words]
+    alone += [(w.start + offset, w.end + offset) for w in analyze(last, texts[1]).alignment.words]
+    assert [w.text for w in own] == "bob bought a map maybe bobby makes pumpkin pie baby".split()
+    for w, (start, end) in zip(own, alone):
+        assert abs(w.start - start) <= 0.1 and abs(w.end - end) <= 0.1, w
+    t = np.arange(first.duration, offset, 0.01)
+    said = np.zeros(len(t), bool)
+    for w in analyze(cut, HELLO_TEXT).alignment.words:
+        said |= (t >= first.duration + w.start) & (t < first.duration + w.end)
+    inside = np.zeros(len(t), bool)
+    for start, end, _ in r.alignment.unscripted:
+        inside |= (t >= start) & (t < end)
+    assert inside[said].mean() >= 0.9
+    assert any("not in the transcript" in w for w in r.warnings)
+
+
 def test_a_swapped_word_keeps_its_neighbours_in_place():
     snd = audio_mod.load(HELLO)
     base = analyze(snd, HELLO_TEXT).alignment.words

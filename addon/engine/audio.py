@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -85,6 +86,14 @@ class Audio:
         n = min(len(self.samples), max(1, int(round(end * self.rate))))
         x = np.array(self.samples[0:n], np.float32)
         x[:min(n, max(0, int(round(start * self.rate))))] = 0.0
+        return Audio(x, self.rate, list(self.notes), self.loud_level())
+
+    def silenced(self, spans: Sequence[tuple[float, float]]) -> Audio:
+        """The clip with the (start, end) s ``spans`` silent, heard over the
+        whole clip's noise floor."""
+        x = np.array(self.samples, np.float32)
+        for start, end in spans:
+            x[max(0, int(round(start * self.rate))):max(0, int(round(end * self.rate)))] = 0.0
         return Audio(x, self.rate, list(self.notes), self.loud_level())
 
     def pcm16(self, start: float = 0.0, end: float | None = None, floor: bool = True) -> bytes:

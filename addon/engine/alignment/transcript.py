@@ -19,7 +19,7 @@ from ..audio import Audio
 from ..errors import AlignmentError, LipSyncError
 from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words
 from .core import align, check_transcript_matches
-from .edges import edges, said_at_the_end
+from .edges import edges, heard_in, left_out, said_at_the_end
 from .model import AlignSettings, Alignment
 from .verify import verify
 
@@ -61,6 +61,19 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                 again.duration = snd.duration
                 verify(snd, again, settings, english=english)
                 if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
+                    al = again
+        cut = left_out(snd, al, phones, settings)
+        if cut:
+            # Speech left out between the script's words (:func:`.edges.left_out`): the transcript is
+            # aligned with it silenced, so the words around it keep to their own speech.
+            try:
+                again = run(snd.silenced(cut))
+            except LipSyncError:
+                again = None
+            if again is not None:
+                again.duration = snd.duration
+                verify(snd, again, settings, english=english)
+                if heard_in(again, cut):
                     al = again
     check_transcript_matches(al, squeeze=english)
     _show(al, prons)

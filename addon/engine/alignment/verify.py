@@ -166,6 +166,21 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
     return spans
 
 
+def _heard(found: list[AlignedWord], t0: float, t1: float) -> bool:
+    """Whether words are heard in t0..t1 s among the recognised words
+    ``found``: :data:`MIN_HEARD_WORDS` and :data:`MIN_HEARD_PHONES`.  A
+    breath, a noise, a held vowel or the edge of a word the aligner placed
+    a little off is heard as one short word at most."""
+    inside = [w for w in found if t0 <= w.start < t1]
+    return len(inside) >= MIN_HEARD_WORDS and sum(len(w.phones) for w in inside) >= MIN_HEARD_PHONES
+
+
+def words_heard(snd: Audio, spans: list[tuple[float, float]], settings: AlignSettings) -> list[bool]:
+    """Whether words are heard (:func:`_heard`) in each (start, end) s span of ``snd``."""
+    found, _ = recognize_spans(snd, spans, settings) if spans else ([], [])
+    return [_heard(found, t0, t1) for t0, t1 in spans]
+
+
 def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'s' if n != 1 else ''}"
 
@@ -200,13 +215,7 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
     spans = _unscripted(snd, al, mask, settings)
     found, phones = recognize_spans(snd, spans, settings) if spans else ([], [])
-    # Only stretches where words are heard count (:data:`MIN_HEARD_WORDS`,
-    # :data:`MIN_HEARD_PHONES`): a breath, a noise or the edge of a word
-    # the aligner placed a little off is heard as one short word at most.
-    def heard(t0, t1):
-        inside = [w for w in found if t0 <= w.start < t1]
-        return len(inside) >= MIN_HEARD_WORDS and sum(len(w.phones) for w in inside) >= MIN_HEARD_PHONES
-    spans = [(t0, t1) for t0, t1 in spans if heard(t0, t1)]
+    spans = [(t0, t1) for t0, t1 in spans if _heard(found, t0, t1)]
     keep = [k for k, w in enumerate(found) if any(t0 <= w.start < t1 for t0, t1 in spans)]
     renumber = {k: i for i, k in enumerate(keep)}
     found = [found[k] for k in keep]
