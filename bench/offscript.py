@@ -36,6 +36,11 @@ On pairs of TIMIT sentences by one speaker (``timit_nltk``), joined:
   and the share of the second sentence's speech inside ``unscripted``;
 * **Speech before the script** (a slate, an ad-lib before the line): the
   same with the second sentence's transcript;
+* **A line cut from the middle** (three sentences in one take, the middle
+  one cut from the transcript): the share of its hand-labelled speech inside
+  ``unscripted`` and of its vowel frames where the mouth is open, and in
+  how many takes the other two sentences' words stay within 0.1 s of where
+  they are when aligned alone;
 * **Another line's transcript**: every sentence with its own transcript and
   with another's: how many are refused, warned, or aligned without a word.
 
@@ -283,6 +288,44 @@ def around_the_script() -> None:
               f"sentence's speech inside unscripted {np.mean(inside):.1%} (lowest {min(inside):.1%})")
 
 
+def cut_line() -> None:
+    """Three TIMIT sentences by one speaker joined, the middle one cut from the transcript: the share of
+    its hand-labelled speech inside ``unscripted``, of its vowel frames where the mouth is open, in how
+    many takes the other two sentences' words stay within 0.1 s of their own alignment, and the CPU time."""
+    from timit import hand_phones
+
+    timit = DATA / "timit_nltk"
+    if not timit.is_dir():
+        return
+    files = sorted(timit.glob("*/*.wav"))
+    triples = [t for t in zip(files[::4], files[1::4], files[2::4]) if t[0].parent == t[1].parent == t[2].parent]
+    text = {p: " ".join(p.with_suffix(".txt").read_text().split()[2:]) for t in triples for p in t}
+    covered, shown, kept, cpu, seconds = [], [], 0, 0.0, 0.0
+    for a, b, c in triples:
+        clips = [audio_mod.load(p) for p in (a, b, c)]
+        take = audio_mod.Audio(np.concatenate([x.samples for x in clips]), clips[0].rate)
+        c0 = _cpu()
+        r = analyze(take, text[a] + " " + text[c])
+        cpu += _cpu() - c0
+        seconds += take.duration
+        start, end = clips[0].duration, clips[0].duration + clips[1].duration
+        ref = hand_phones(b.with_suffix(".phn"))
+        covered.append(_covered(r.alignment, [(start + p.start, start + p.end) for p in ref], start, end))
+        vowels = np.concatenate([_frames(r, start + p.start, start + p.end) for p in ref if p.phones & VOWELS]
+                                or [np.zeros(0, int)])
+        shown.append(float((r.curves[vowels].max(axis=1) >= OPEN).mean()))
+        alone = [(w.start, w.end) for w in analyze(clips[0], text[a]).alignment.words]
+        alone += [(w.start + end, w.end + end) for w in analyze(clips[2], text[c]).alignment.words]
+        own = [w for w in r.alignment.words if not w.recognized]
+        kept += len(own) == len(alone) and all(abs(w.start - s0) <= 0.1 and abs(w.end - s1) <= 0.1
+                                               for w, (s0, s1) in zip(own, alone))
+    print(f"{'A line cut from the middle':32s} ({len(triples)} takes of three TIMIT sentences, the middle one "
+          f"cut from the transcript): its speech inside unscripted {np.mean(covered):.1%} (lowest "
+          f"{min(covered):.1%}); mouth open on {np.mean(shown):.1%} of its vowel frames (lowest {min(shown):.1%}); "
+          f"the other words within 0.1 s of their own alignment in {kept} of {len(triples)}; "
+          f"{cpu / seconds:.3f} CPU s per s of audio")
+
+
 def another_line() -> None:
     """Each TIMIT sentence with its own transcript and with another sentence's (seven on): how many are
     refused, and how many warned that the transcript may belong to another recording."""
@@ -311,4 +354,5 @@ if __name__ == "__main__":
     scripts()
     print()
     around_the_script()
+    cut_line()
     another_line()
