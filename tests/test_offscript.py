@@ -167,6 +167,27 @@ def test_a_line_cut_from_the_middle_of_the_transcript_leaves_the_words_around_it
     assert any("not in the transcript" in w for w in r.warnings)
 
 
+def test_a_held_vowel_keeps_its_word():
+    """A vowel held for most of a second (the "a" of "happy", drawn out) is the word's own speech: it is
+    not taken for speech cut from the transcript, and every word keeps its place."""
+    snd = audio_mod.load(HELLO)
+    base = analyze(snd, HELLO_TEXT).alignment
+    vowel = next(p for p in base.phones if base.words[p.word_index].text == "happy" and p.phone == "AE")
+    rate, mid = snd.rate, int(round((vowel.start + vowel.end) / 2 * snd.rate))
+    x = np.asarray(snd.samples, np.float64)
+    chunk, fade = x[mid - int(0.02 * rate):mid + int(0.02 * rate)], int(0.01 * rate)
+    ramp = np.linspace(0.0, 1.0, fade)
+    out = x[:mid]
+    for piece in [chunk] * 26 + [x[mid:]]:          # 26 x 30 ms more of the vowel, cross-faded
+        out = np.concatenate([out[:-fade], out[-fade:] * (1 - ramp) + piece[:fade] * ramp, piece[fade:]])
+    added = (len(out) - len(x)) / rate
+    al = analyze(audio_mod.Audio(out.astype(np.float32), rate), HELLO_TEXT).alignment
+    assert not al.unscripted and all(w.spoken and not w.recognized for w in al.words)
+    assert any(p.phone == "AE" and p.end - p.start >= 0.7 for p in al.phones)
+    for w, was in zip(al.words, base.words):
+        assert abs(w.start - (was.start + (added if was.start > vowel.start else 0.0))) <= 0.03, w
+
+
 def test_a_swapped_word_keeps_its_neighbours_in_place():
     snd = audio_mod.load(HELLO)
     base = analyze(snd, HELLO_TEXT).alignment.words

@@ -46,35 +46,36 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
                                  "lines") from None
 
     english = lexicon.language.is_english
+
+    def again(clip: Audio) -> Alignment | None:
+        """The transcript aligned to ``clip`` (``snd`` with stretches silenced) and the take checked
+        again over the whole of ``snd``; None where the transcript cannot be aligned to it."""
+        try:
+            second = run(clip)
+        except LipSyncError:
+            return None
+        second.duration = snd.duration
+        verify(snd, second, settings, english=english)
+        return second
+
     al = run(snd, progress)
     if check_take:
         verify(snd, al, settings, english=english)
+        clip = snd
         bounds = edges(snd, al, phones, settings)
         if bounds is not None:
             # Speech before or after the script (:mod:`.edges`): the transcript is aligned to the
-            # stretch between its edges, and the take checked again over the whole clip.
-            try:
-                again = run(snd.within(*bounds))
-            except LipSyncError:      # the stretch cannot hold the transcript after all: the first one stands
-                again = None
-            if again is not None:
-                again.duration = snd.duration
-                verify(snd, again, settings, english=english)
-                if bounds[1] >= snd.duration or not said_at_the_end(al, again, bounds[1]):
-                    al = again
+            # stretch between its edges, unless its last words were said at the clip's end after all.
+            second = again(snd.within(*bounds))
+            if second is not None and (bounds[1] >= snd.duration or not said_at_the_end(al, second, bounds[1])):
+                al, clip = second, snd.within(*bounds)
         cut = left_out(snd, al, phones, settings)
         if cut:
             # Speech left out between the script's words (:func:`.edges.left_out`): the transcript is
-            # aligned with it silenced, so the words around it keep to their own speech.
-            try:
-                again = run(snd.silenced(cut))
-            except LipSyncError:
-                again = None
-            if again is not None:
-                again.duration = snd.duration
-                verify(snd, again, settings, english=english)
-                if heard_in(again, cut):
-                    al = again
+            # aligned with it silenced too, so the words around it keep to their own speech.
+            second = again(clip.silenced(cut))
+            if second is not None and heard_in(second, cut):
+                al = second
     check_transcript_matches(al, squeeze=english)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
