@@ -244,6 +244,23 @@ def test_batch_counts_words_not_heard_per_line(tmp_path):
     assert "line 3" not in p.stdout
 
 
+@pytest.mark.parametrize("said", ["My", "is", "to"])
+def test_a_long_wrong_word_in_place_of_a_short_one_keeps_its_neighbours_in_place(said):
+    """"remarkable" in the transcript where "my", "is" or "to" was said: its phones cannot all fit the
+    short word's speech, and took the rest from the words beside it (90-150 ms); laid on that speech
+    alone (alignment.room), it leaves them where they are with the line's own transcript."""
+    snd = audio_mod.load(HELLO)
+    tokens = HELLO_TEXT.split()
+    k = tokens.index(said)
+    base = analyze(snd, HELLO_TEXT).alignment.words
+    al = analyze(snd, " ".join(tokens[:k] + ["remarkable"] + tokens[k + 1:])).alignment
+    words = [w for w in al.words if not w.recognized]
+    assert words[k].text == "remarkable" and words[k].spoken
+    assert [p.phone for p in al.phones if al.words[p.word_index] is words[k]] == words[k].phones
+    for i in (k - 1, k + 1):
+        assert abs(words[i].start - base[i].start) <= 0.04, (words[i], base[i])
+
+
 def test_no_transcript_in_another_language_says_recognition_is_english_only():
     from addon.engine.errors import LipSyncError
 

@@ -21,24 +21,14 @@ around it, and the caller aligns the transcript with it silenced.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 
 from ..audio import Audio
-from .decoding import _decoder
 from .fillers import base_token, is_hesitation
+from .loops import loop_pass, loops
 from .model import FRAME, AlignSettings, Alignment
 from .speech import frame_levels, speech_mask
 from .verify import edit_path, words_heard
 
-#: The acoustic model's speech phones, each a one-phone word of the loop.
-LOOP_PHONES = ("AA AE AH AO AW AY B CH D DH EH ER EY F G HH IH IY JH K L M N NG OW OY P R S SH T TH UH UW "
-               "V W Y Z ZH").split()
-#: The grammar's weight of a loop before the first word and after the last (against 1 - it of none).
-LOOP_WEIGHT = 0.1
-#: The pass's word insertion penalty: each phone of a loop costs this much, so a loop takes only
-#: speech the words do not fit (pocketsphinx's 0.65 let it take the last words of a line whose
-#: middle had been cut from the transcript, with their own speech).
-PHONE_PENALTY = 1e-3
 #: A loop takes at least this much (s) for the script's edge to move.
 MIN_LOOP = 0.4
 #: Clips longer than this (s) are not searched this way (one pass holds the whole clip).
@@ -69,61 +59,6 @@ GAP_BEAM = 1e-60
 #: long loop whose every phone pays it; the words around the cut otherwise take the cut speech
 #: again (MFA clips, ten words cut: 53-88 % of their speech found at 1e-2, 18-84 % at 1e-3).
 GAP_PENALTY = 1e-2
-
-
-def loop_pass(audio: Audio, prons: Sequence[Sequence[str]], first: int, gaps: set[int], settings: AlignSettings,
-              t0: float = 0.0, t1: float | None = None, beam: float | None = None, one: bool = False,
-              penalty: float = PHONE_PENALTY
-              ) -> list[tuple[str, float, float]] | None:
-    """One word pass over ``audio`` t0..t1 (s) through the words ``prons``
-    (tokens ``w<first>``...), in order, where a loop of any phones may come
-    before word ``k`` for every ``k`` in ``gaps`` (``len(prons)``: after the
-    last); with ``one``, a loop comes at exactly one of them.  Returns the
-    (word, start s, end s) segments, loop phones as
-    ``x<phone>``; None when the pass finds no path.  ``beam`` (all three
-    beams) narrows the search: each loop is a copy of every phone."""
-    t1 = audio.duration if t1 is None else t1
-    loop = "( " + " | ".join(f"x{p}" for p in LOOP_PHONES) + " )"
-    maybe = f"( /{1 - LOOP_WEIGHT}/ <NULL> | /{LOOP_WEIGHT}/ <loop> )"
-    words = [f"w{first + k}" for k in range(len(prons))] + [""]
-    if one:
-        body = "( " + " | ".join(" ".join(words[:k] + ["<loop>"] + words[k:]).strip() for k in sorted(gaps)) + " )"
-    else:
-        body = " ".join(part for k, w in enumerate(words) for part in ([maybe] if k in gaps else []) + [w] if part)
-    grammar = f"#JSGF V1.0;\ngrammar loops;\n<loop> = {loop}+;\npublic <s> = {body};\n"
-    if beam:
-        settings = replace(settings, beam=beam, pbeam=beam, wbeam=beam)
-    try:
-        decoder = _decoder(prons, first, settings, more=[f"x{p} {p}" for p in LOOP_PHONES], wip=penalty)
-        decoder.add_jsgf_string("loops", grammar)
-        decoder.activate_search("loops")
-        decoder.start_utt()
-        decoder.process_raw(audio.pcm16(t0, t1), full_utt=True)
-        decoder.end_utt()
-        segs = [(sg.word, t0 + sg.start_frame * FRAME, t0 + (sg.end_frame + 1) * FRAME)
-                for sg in (decoder.seg() or [])]
-    except RuntimeError:
-        return None
-    tokens = [f"w{first + k}" for k in range(len(prons))]
-    if [base_token(w) for w, _, _ in segs if base_token(w) in set(tokens)] != tokens:
-        return None
-    return segs
-
-
-def loops(segs: list[tuple[str, float, float]]) -> list[tuple[float, float]]:
-    """The (start, end) s of the runs of loop phones in a :func:`loop_pass`'s segments."""
-    out: list[list[float]] = []
-    inside = False
-    for w, a, b in segs:
-        if w.startswith("x"):
-            if inside:
-                out[-1][1] = b
-            else:
-                out.append([a, b])
-            inside = True
-        elif base_token(w).startswith("w"):
-            inside = False
-    return [(a, b) for a, b in out]
 
 
 def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],

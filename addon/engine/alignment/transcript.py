@@ -21,6 +21,7 @@ from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skip
 from .core import align, check_transcript_matches
 from .edges import edges, heard_in, left_out, said_at_the_end
 from .model import AlignSettings, Alignment
+from .room import lay_out, room
 from .verify import verify
 
 
@@ -36,9 +37,10 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     prons = [lexicon.pronounce(w) for w in words]
     phones = [p.aligned or p.phones for p in prons]
 
-    def run(clip: Audio, report=None) -> Alignment:
+    def run(clip: Audio, report=None, stand_in: dict[int, list[str]] | None = None) -> Alignment:
+        aligned = [(stand_in or {}).get(k, ph) for k, ph in enumerate(phones)]
         try:
-            return align(clip, phones, [w.pause_after for w in words], [w.text for w in words],
+            return align(clip, aligned, [w.pause_after for w in words], [w.text for w in words],
                          [p.source for p in prons], settings, report)
         except (BrokenProcessPool, MemoryError):
             raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
@@ -47,14 +49,17 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
 
     english = lexicon.language.is_english
 
-    def again(clip: Audio) -> Alignment | None:
-        """The transcript aligned to ``clip`` (``snd`` with stretches silenced) and the take checked
-        again over the whole of ``snd``; None where the transcript cannot be aligned to it."""
+    def again(clip: Audio, stand_in: dict[int, list[str]] | None = None) -> Alignment | None:
+        """The transcript aligned to ``clip`` (``snd`` with stretches silenced; the words ``stand_in``
+        with other phones standing in for theirs, :mod:`.room`) and the take checked again over the
+        whole of ``snd``; None where the transcript cannot be aligned to it."""
         try:
-            second = run(clip)
+            second = run(clip, stand_in=stand_in)
         except LipSyncError:
             return None
         second.duration = snd.duration
+        if stand_in:
+            lay_out(second, {k: phones[k] for k in stand_in})
         verify(snd, second, settings, english=english)
         return second
 
@@ -75,7 +80,11 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
             # aligned with it silenced too, so the words around it keep to their own speech.
             second = again(clip.silenced(cut))
             if second is not None and heard_in(second, cut):
-                al = second
+                al, clip = second, clip.silenced(cut)
+        stand_in = room(clip, al, phones, settings)
+        if stand_in:
+            # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
+            al = again(clip, stand_in) or al
     check_transcript_matches(al, squeeze=english)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
