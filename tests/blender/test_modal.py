@@ -403,8 +403,8 @@ def test_a_line_over_ten_seconds_is_aligned_in_pieces_from_the_jobs_thread(scene
     """A line of 10 to 90 s is cut into pieces aligned in forked processes
     while the voice is measured in another: from the job's background
     thread inside Blender too, with every word placed by the aligner."""
-    parts = [(os.path.join(FIXTURES, "pause.wav"), "First part of the line. And the second part after a long pause."),
-             (BOB, None), (os.path.join(FIXTURES, "pause.wav"), "First part of the line. And the second part."),
+    said = "First part of the line. And the second part after a long pause."     # pause.wav, as said
+    parts = [(os.path.join(FIXTURES, "pause.wav"), said), (BOB, None), (os.path.join(FIXTURES, "pause.wav"), said),
              (PIE, None)]
     frames, texts = [], []
     for path, text in parts:
