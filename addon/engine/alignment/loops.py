@@ -23,8 +23,9 @@ LOOP_PHONES = ("AA AE AH AO AW AY B CH D DH EH ER EY F G HH IH IY JH K L M N NG 
 LOOP_WEIGHT = 0.1
 #: The word insertion penalty of the pass: each phone of a loop costs this much, so a loop takes
 #: only speech the words do not fit (pocketsphinx's 0.65 let it take the last words of a line
-#: whose middle had been cut from the transcript, with their own speech).  Every word pays it too:
-#: scaled by the language weight, it narrows the beam by as many words as the path has passed.
+#: whose middle had been cut from the transcript, with their own speech).  Every word pays it too,
+#: scaled by the language weight, and a loop scores better than words on any speech: on a long,
+#: hard take (a hoarse voice) the words' path can fall out of the beam, and the pass find none.
 PHONE_PENALTY = 1e-3
 
 
