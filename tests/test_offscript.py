@@ -167,6 +167,22 @@ def test_a_line_cut_from_the_middle_of_the_transcript_leaves_the_words_around_it
     assert any("not in the transcript" in w for w in r.warnings)
 
 
+def test_speech_known_to_be_cut_is_unscripted_up_to_the_words_beside_it():
+    """Uncovered speech keeps a margin from the spoken words (the edge of a word placed a little off is
+    not unscripted speech); a stretch the cut pass silenced is unscripted right up to them."""
+    from addon.engine.alignment.model import AlignedWord, Alignment
+    from addon.engine.alignment.verify import WORD_MARGIN, _unscripted
+
+    snd = audio_mod.load(HELLO)
+    words = [AlignedWord("before", 0.0, 1.0, ["B"]), AlignedWord("after", 2.0, 3.0, ["AH"])]
+    al = Alignment(words, [], 3.0)
+    mask = np.ones(300, bool)                          # speech all through
+    (start, end), = _unscripted(snd, al, mask, None)
+    assert start == pytest.approx(1.0 + WORD_MARGIN, abs=0.011) and end == pytest.approx(2.0 - WORD_MARGIN, abs=0.011)
+    (start, end), = _unscripted(snd, al, mask, None, left_out=[(1.0, 2.0)])
+    assert start == pytest.approx(1.0, abs=0.011) and end == pytest.approx(2.0, abs=0.011)
+
+
 def test_a_held_vowel_keeps_its_word():
     """A vowel held for most of a second (the "a" of "happy", drawn out) is the word's own speech: it is
     not taken for speech cut from the transcript, and every word keeps its place."""

@@ -11,7 +11,7 @@ said so in the alignment's notes and warnings.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
 
 from .. import audio as audio_mod
@@ -49,10 +49,12 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
 
     english = lexicon.language.is_english
 
-    def again(clip: Audio, stand_in: dict[int, list[str]] | None = None) -> Alignment | None:
+    def again(clip: Audio, stand_in: dict[int, list[str]] | None = None,
+              cut: Sequence[tuple[float, float]] = ()) -> Alignment | None:
         """The transcript aligned to ``clip`` (``snd`` with stretches silenced; the words ``stand_in``
         with other phones standing in for theirs, :mod:`.room`) and the take checked again over the
-        whole of ``snd``; None where the transcript cannot be aligned to it."""
+        whole of ``snd`` (``cut``: the stretches silenced as speech cut from it); None where the
+        transcript cannot be aligned to it."""
         try:
             second = run(clip, stand_in=stand_in)
         except LipSyncError:
@@ -60,7 +62,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         second.duration = snd.duration
         if stand_in:
             lay_out(second, {k: phones[k] for k in stand_in})
-        verify(snd, second, settings, english=english)
+        verify(snd, second, settings, english=english, left_out=cut)
         return second
 
     al = run(snd, progress)
@@ -78,13 +80,15 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         if cut:
             # Speech left out between the script's words (:func:`.edges.left_out`): the transcript is
             # aligned with it silenced too, so the words around it keep to their own speech.
-            second = again(clip.silenced(cut))
-            if second is not None and heard_in(second, cut):
+            second = again(clip.silenced(cut), cut=cut)
+            if second is None or not heard_in(second, cut):
+                cut = []
+            else:
                 al, clip = second, clip.silenced(cut)
         stand_in = room(clip, al, phones, settings)
         if stand_in:
             # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
-            al = again(clip, stand_in) or al
+            al = again(clip, stand_in, cut) or al
     check_transcript_matches(al, squeeze=english)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)

@@ -24,6 +24,8 @@ acoustic evidence:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..audio import Audio
@@ -143,16 +145,20 @@ def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettin
     return out
 
 
-def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings
-                ) -> list[tuple[float, float]]:
+def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings,
+                left_out: Sequence[tuple[float, float]] = ()) -> list[tuple[float, float]]:
     """Stretches of speech no spoken word lies on, as (start, end) s; runs
     of such speech less than :data:`JOIN_GAP` apart and between the same two
-    words are one stretch (recognised together, in context)."""
+    words are one stretch (recognised together, in context).  The stretches
+    ``left_out`` (speech known to be cut from the transcript) are uncovered
+    up to the words beside them, without :data:`WORD_MARGIN`."""
     covered = np.zeros(len(mask), bool)
     for w in al.words:
         if w.spoken:
             a = max(0, int((w.start - WORD_MARGIN) / FRAME))
             covered[a:int(np.ceil((w.end + WORD_MARGIN) / FRAME))] = True
+    for start, end in left_out:
+        covered[int(round(start / FRAME)):int(round(end / FRAME))] = False
     joined: list[list[int]] = []
     for i, j in runs(mask & ~covered).tolist():
         if joined and (i - joined[-1][1]) * FRAME < JOIN_GAP and not covered[joined[-1][1]:i].any():
@@ -185,9 +191,12 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'s' if n != 1 else ''}"
 
 
-def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, english: bool = True) -> Alignment:
+def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, english: bool = True,
+           left_out: Sequence[tuple[float, float]] = ()) -> Alignment:
     """Mark the transcript's unspoken words and recognise the unscripted
     speech of ``al`` (aligned to ``snd``), in place; returns ``al``.
+    ``left_out``: stretches known to hold speech cut from the transcript
+    (:func:`.edges.left_out`), unscripted up to the words beside them.
 
     Recognition is English: in a line in another language (not ``english``)
     the unscripted speech is animated from the phones heard, and its words
@@ -213,7 +222,7 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
         al.notes.insert(0, warning)
         al.warnings.insert(0, warning)
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
-    spans = _unscripted(snd, al, mask, settings)
+    spans = _unscripted(snd, al, mask, settings, left_out)
     found, phones = recognize_spans(snd, spans, settings) if spans else ([], [])
     spans = [(t0, t1) for t0, t1 in spans if _heard(found, t0, t1)]
     keep = [k for k, w in enumerate(found) if any(t0 <= w.start < t1 for t0, t1 in spans)]
