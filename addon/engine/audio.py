@@ -83,17 +83,15 @@ class Audio:
     def within(self, start: float, end: float) -> Audio:
         """The clip up to ``end`` s, silent before ``start`` s, heard over the
         whole clip's noise floor."""
-        n = min(len(self.samples), max(1, int(round(end * self.rate))))
-        x = np.array(self.samples[0:n], np.float32)
-        x[:min(n, max(0, int(round(start * self.rate))))] = 0.0
-        return Audio(x, self.rate, list(self.notes), self.loud_level())
+        return self.silenced([(0.0, start)], end)
 
-    def silenced(self, spans: Sequence[tuple[float, float]]) -> Audio:
-        """The clip with the (start, end) s ``spans`` silent, heard over the
-        whole clip's noise floor."""
-        x = np.array(self.samples, np.float32)
-        for start, end in spans:
-            x[max(0, int(round(start * self.rate))):max(0, int(round(end * self.rate)))] = 0.0
+    def silenced(self, spans: Sequence[tuple[float, float]], end: float | None = None) -> Audio:
+        """The clip (up to ``end`` s) with the (start, end) s ``spans``
+        silent, heard over the whole clip's noise floor."""
+        n = len(self.samples) if end is None else min(len(self.samples), max(1, int(round(end * self.rate))))
+        x = np.array(self.samples[0:n], np.float32)
+        for a, b in spans:
+            x[max(0, int(round(a * self.rate))):max(0, int(round(b * self.rate)))] = 0.0
         return Audio(x, self.rate, list(self.notes), self.loud_level())
 
     def pcm16(self, start: float = 0.0, end: float | None = None, floor: bool = True) -> bytes:

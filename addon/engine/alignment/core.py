@@ -131,7 +131,7 @@ def check_transcript_matches(alignment: Alignment, max_estimated_share: float = 
         raise AlignmentError(
             f"{share:.0%} of the phonemes could not be aligned to the audio: "
             "does the transcript belong to this recording?")
-    script = [w for w in alignment.words if not w.recognized]
+    script = alignment.script
     unheard = sum(not w.spoken for w in script) / max(1, len(script))
     if unheard > max_estimated_share and len(script) > 3:
         raise AlignmentError(

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from ..audio import Audio
 from .fillers import base_token, is_hesitation
 from .loops import loop_pass, loops
-from .model import FRAME, AlignSettings, Alignment
+from .model import FRAME, AlignedPhone, AlignSettings, Alignment
 from .speech import frame_levels, speech_mask
 from .verify import edit_path, words_heard
 
@@ -79,11 +79,19 @@ def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],
     return start, end
 
 
+def _stretched(al: Alignment) -> list[tuple[int, AlignedPhone]]:
+    """(index in ``al.script``, phone) for the phones :data:`STRETCHED` s long or more in the
+    transcript's words (hesitations, often drawn out, left out)."""
+    script = al.script
+    return [(k, p) for k, p in al.script_phones()
+            if p.end - p.start >= STRETCHED and not is_hesitation(script[k].text)]
+
+
 def _pulled(al: Alignment) -> bool:
     """Whether the first alignment shows the script pulled at an edge."""
-    script = [k for k, w in enumerate(al.words) if w.spoken and not w.recognized and not is_hesitation(w.text)]
+    script = [k for k, w in enumerate(al.script) if w.spoken and not is_hesitation(w.text)]
     edge = set(script[:EDGE_WORDS] + script[-EDGE_WORDS:])
-    return bool(al.unscripted) or any(p.end - p.start >= STRETCHED for p in al.phones if p.word_index in edge)
+    return bool(al.unscripted) or any(k in edge for k, _ in _stretched(al))
 
 
 def edges(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
@@ -91,7 +99,7 @@ def edges(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     """(start, end) s of the stretch of ``snd`` the transcript is to be
     aligned to, when speech before or after it pulled its first or last
     words in the first alignment ``al``; None to keep ``al``."""
-    script = [w for w in al.words if w.spoken and not w.recognized]
+    script = [w for w in al.script if w.spoken]
     if not script or not _pulled(al):
         return None
     start, end = script_bounds(snd, prons, settings)
@@ -118,7 +126,7 @@ def said_at_the_end(first: Alignment, again: Alignment, end: float) -> bool:
     """Whether the words a new ``end`` moves are heard at the end of the
     clip after all: :data:`HEARD` of their phones matched, in order, by the
     last phones recognised there (twice as many)."""
-    moved = [p for w in first.words if w.spoken and not w.recognized and w.end > end + SHIFT for p in w.phones]
+    moved = [p for w in first.script if w.spoken and w.end > end + SHIFT for p in w.phones]
     heard = [p for w in again.words if w.recognized and w.start >= end for p in w.phones][-2 * len(moved):]
     if not moved or not heard:
         return False
@@ -141,7 +149,7 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     :data:`MIN_LOOP` s or more in which words are heard are returned, for the
     caller to align the transcript with them silenced and check the take
     again."""
-    script = [w for w in al.words if not w.recognized]
+    script = al.script
     n = len(prons)
     if len(script) != n or n < 2 or snd.duration > MAX_CLIP:
         return []
@@ -153,10 +161,7 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
             centres.append(said[before - 1] + 1)
     # A word pulled over it all (no speech left uncovered): one long phone, where words are heard
     # (not a held vowel).
-    index = {id(w): k for k, w in enumerate(script)}
-    long = [(index[id(al.words[p.word_index])], p) for p in al.phones if id(al.words[p.word_index]) in index
-            and p.end - p.start >= STRETCHED]
-    long = [(k, p) for k, p in long if 0 < k < n - 1 and not is_hesitation(script[k].text)]
+    long = [(k, p) for k, p in _stretched(al) if 0 < k < n - 1]
     for (k, p), heard in zip(long, words_heard(snd, [(p.start, p.end) for _, p in long], settings)):
         if heard:
             centres.append(k + 1 if p.end > (script[k].start + script[k].end) / 2 else k)

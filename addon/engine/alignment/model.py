@@ -96,3 +96,13 @@ class Alignment:
     @property
     def n_estimated(self) -> int:
         return sum(p.estimated for p in self.phones)
+
+    @property
+    def script(self) -> list[AlignedWord]:
+        """The transcript's words, in order (spoken or not), without the words recognised."""
+        return [w for w in self.words if not w.recognized]
+
+    def script_phones(self) -> list[tuple[int, AlignedPhone]]:
+        """(index in :attr:`script`, phone) for every phone of the transcript's words."""
+        index = {wi: k for k, wi in enumerate(wi for wi, w in enumerate(self.words) if not w.recognized)}
+        return [(index[p.word_index], p) for p in self.phones if p.word_index in index]

@@ -38,13 +38,11 @@ ROOM = 0.6
 def crowded(al: Alignment) -> list[int]:
     """Transcript indices of the spoken words of ``al`` that have at least
     :data:`CROWDED_PHONES` phones, half of them or more at the shortest length."""
-    script = [w for w in al.words if not w.recognized]
-    index = {id(w): k for k, w in enumerate(script)}
+    script = al.script
     squeezed = [0] * len(script)
     count = [0] * len(script)
-    for p in al.phones:
-        k = index.get(id(al.words[p.word_index]))
-        if k is not None and not p.estimated:
+    for k, p in al.script_phones():
+        if not p.estimated:
             count[k] += 1
             squeezed[k] += at_shortest(p.end - p.start)
     return [k for k, w in enumerate(script)
@@ -56,7 +54,7 @@ def room(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     """{transcript index: the phones heard in its place} for the crowded
     words of ``al`` (aligned to ``snd``) whose speech a loop of any phones
     takes, over well under the time the word's own phones need (:data:`ROOM`)."""
-    script = [w for w in al.words if not w.recognized]
+    script = al.script
     n = len(prons)
     if len(script) != n:
         return {}

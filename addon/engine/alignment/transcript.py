@@ -73,18 +73,20 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         if bounds is not None:
             # Speech before or after the script (:mod:`.edges`): the transcript is aligned to the
             # stretch between its edges, unless its last words were said at the clip's end after all.
-            second = again(snd.within(*bounds))
+            inner = snd.within(*bounds)
+            second = again(inner)
             if second is not None and (bounds[1] >= snd.duration or not said_at_the_end(al, second, bounds[1])):
-                al, clip = second, snd.within(*bounds)
+                al, clip = second, inner
         cut = left_out(snd, al, phones, settings)
         if cut:
             # Speech left out between the script's words (:func:`.edges.left_out`): the transcript is
             # aligned with it silenced too, so the words around it keep to their own speech.
-            second = again(clip.silenced(cut), cut=cut)
+            quiet = clip.silenced(cut)
+            second = again(quiet, cut=cut)
             if second is None or not heard_in(second, cut):
                 cut = []
             else:
-                al, clip = second, clip.silenced(cut)
+                al, clip = second, quiet
         stand_in = room(clip, al, phones, settings)
         if stand_in:
             # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
