@@ -31,20 +31,21 @@ PHONE_PENALTY = 1e-3
 
 def loop_pass(audio: Audio, prons: Sequence[Sequence[str]], first: int, gaps: set[int], settings: AlignSettings,
               t0: float = 0.0, t1: float | None = None, beam: float | None = None, one: bool = False,
-              penalty: float = PHONE_PENALTY, instead: frozenset[int] = frozenset()
+              penalty: float = PHONE_PENALTY, instead: frozenset[int] = frozenset(), weight: float = LOOP_WEIGHT
               ) -> list[tuple[str, float, float]] | None:
     """One word pass over ``audio`` t0..t1 (s) through the words ``prons``
     (tokens ``w<first>``...), in order, where a loop of any phones may come
     before word ``k`` for every ``k`` in ``gaps`` (``len(prons)``: after the
     last); with ``one``, a loop comes at exactly one of them.  Each word
-    ``k`` in ``instead`` may be a loop instead.  Returns the (word, start s,
+    ``k`` in ``instead`` may be a loop instead (the grammar's weight of
+    the loop ``weight``, of the word 1 - it).  Returns the (word, start s,
     end s) segments, loop phones as ``x<phone>``; None when the pass finds
     no path.  ``beam`` (all three beams) narrows the search: each loop is a
     copy of every phone."""
     t1 = audio.duration if t1 is None else t1
     loop = "( " + " | ".join(f"x{p}" for p in LOOP_PHONES) + " )"
     maybe = f"( /{1 - LOOP_WEIGHT}/ <NULL> | /{LOOP_WEIGHT}/ <loop> )"
-    words = [f"( /{1 - LOOP_WEIGHT}/ w{first + k} | /{LOOP_WEIGHT}/ <loop> )" if k in instead else f"w{first + k}"
+    words = [f"( /{1 - weight}/ w{first + k} | /{weight}/ <loop> )" if k in instead else f"w{first + k}"
              for k in range(len(prons))] + [""]
     if one:
         body = "( " + " | ".join(" ".join(words[:k] + ["<loop>"] + words[k:]).strip() for k in sorted(gaps)) + " )"

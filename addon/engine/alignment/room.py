@@ -7,7 +7,8 @@ rest from its neighbours: the words beside it moved by 50-100 ms.  Such a
 word has at least half of its phones squeezed to that length.  For each one,
 :func:`room` makes a word pass over the words around it in which a loop of
 any phones may take its place; where the loop does, over less time than the
-word's phones need (:data:`ROOM`), the word is laid on the loop's speech: the transcript is
+word's phones need (:data:`ROOM`), or over more but still against a
+strongly weighted word (:data:`STRICT`), the word is laid on the loop's speech: the transcript is
 aligned again with the phones the loop heard standing in for the word's, and
 :func:`lay_out` then spreads the word's own phones over the time it got.
 Words said as written fit their speech: on TIMIT's 61 sentences and the
@@ -20,7 +21,7 @@ from collections.abc import Sequence
 
 from ..audio import Audio
 from .estimate import _estimate
-from .loops import loop_pass
+from .loops import LOOP_WEIGHT, loop_pass
 from .model import FRAME, SHORTEST_FRAMES, AlignedPhone, AlignSettings, Alignment, at_shortest
 
 #: A word with at least this many phones, at least half of them at the shortest length, is crowded.
@@ -33,6 +34,16 @@ BEAM = 1e-60
 #: can be.  Words said as written that are crowded have 0.67 or more (a fast "pretty": 0.67; on
 #: TIMIT, 1.3 or more); "elephant" for a short word 0.14-1.8, half of them under 0.6.
 ROOM = 0.6
+#: A wrong word can also just fit the speech it stands for ("elephant" for "me": its phones need
+#: 0.21 s, "me" took 0.22 s).  Over more than ROOM, the loop takes the word's place where it still
+#: does with this grammar weight against the word's (1 - it), the acoustic evidence the loop must
+#: have over the word.  No crowded
+#: word said as written takes a loop on TIMIT's 61 sentences or the reference clips at 1e-30; at
+#: 1e-25, a fast "pretty" does; at 1e-35, 36 of 48 "elephant"s for a short word still do.
+STRICT = 1e-30
+#: ... and where that loop lies within the word's aligned time, give or take this (s): a loop
+#: further out has taken speech a wrong word beside it left over ("won't" after "blue" for "thinking").
+INSIDE = 0.1
 
 
 def crowded(al: Alignment) -> list[int]:
@@ -53,7 +64,9 @@ def room(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
          settings: AlignSettings) -> dict[int, list[str]]:
     """{transcript index: the phones heard in its place} for the crowded
     words of ``al`` (aligned to ``snd``) whose speech a loop of any phones
-    takes, over well under the time the word's own phones need (:data:`ROOM`)."""
+    takes, over well under the time the word's own phones need (:data:`ROOM`),
+    or, over more, against a word weighed :data:`STRICT` times the loop's and
+    inside the time the word got (:data:`INSIDE`)."""
     script = al.script
     n = len(prons)
     if len(script) != n:
@@ -63,12 +76,24 @@ def room(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
         first, last = max(0, k - AROUND), min(n - 1, k + AROUND)
         t0 = script[first].start if first > 0 else 0.0
         t1 = script[last].end if last < n - 1 else snd.duration
-        segs = loop_pass(snd, prons[first:last + 1], first, set(), settings, t0, t1, beam=BEAM,
-                         instead=frozenset({k - first}))
-        heard = [(w[1:], a, b) for w, a, b in segs or [] if w.startswith("x")]
-        if heard and heard[-1][2] - heard[0][1] < ROOM * SHORTEST_FRAMES * len(prons[k]) * FRAME:
-            out[k] = [p for p, _, _ in heard]
+        window = (snd, prons[first:last + 1], first, k - first, settings, t0, t1)
+        loop = _heard(*window, LOOP_WEIGHT)
+        if loop and loop[-1][2] - loop[0][1] >= ROOM * SHORTEST_FRAMES * len(prons[k]) * FRAME:
+            loop = _heard(*window, STRICT)
+            if loop and (loop[0][1] < script[k].start - INSIDE or loop[-1][2] > script[k].end + INSIDE):
+                loop = []
+        if loop:
+            out[k] = [p for p, _, _ in loop]
     return out
+
+
+def _heard(snd: Audio, prons: Sequence[Sequence[str]], first: int, k: int, settings: AlignSettings,
+           t0: float, t1: float, weight: float) -> list[tuple[str, float, float]]:
+    """The (phone, start s, end s) of the loop a word pass over ``prons``
+    (tokens from ``w<first>``) takes in place of word ``k`` (the grammar's
+    weight of the loop ``weight``); none where the word keeps its place."""
+    segs = loop_pass(snd, prons, first, set(), settings, t0, t1, beam=BEAM, instead=frozenset({k}), weight=weight)
+    return [(w[1:], a, b) for w, a, b in segs or [] if w.startswith("x")]
 
 
 def lay_out(al: Alignment, own: dict[int, Sequence[str]]) -> None:
