@@ -167,6 +167,53 @@ def test_a_line_cut_from_the_middle_of_the_transcript_leaves_the_words_around_it
     assert any("not in the transcript" in w for w in r.warnings)
 
 
+def _two_cuts():
+    """bob_map, hello, fast_bilabials, hello, bob_map in one take; the transcript leaves both hellos out.
+    Returns the take, its transcript, the (start, end) s of the two cut lines' words, and each kept
+    word's (start, end) s when its line is aligned alone."""
+    bob, cut, fast = (audio_mod.load(p) for p in (FIXTURES / "bob_map.wav", HELLO, FIXTURES / "fast_bilabials.wav"))
+    texts = [(FIXTURES / name).read_text(encoding="utf-8").strip() for name in ("bob_map.txt", "fast_bilabials.txt")]
+    parts = [bob, cut, fast, cut, bob]
+    take = audio_mod.Audio(np.concatenate([p.samples for p in parts]), bob.rate)
+    at = np.cumsum([0.0] + [p.duration for p in parts])
+    said = [(w.start, w.end) for w in analyze(cut, HELLO_TEXT).alignment.words]
+    cuts = [[(at[i] + a, at[i] + b) for a, b in said] for i in (1, 3)]
+    kept = [(at[i] + w.start, at[i] + w.end) for i, (snd, text) in zip((0, 2, 4), ((bob, texts[0]), (fast, texts[1]),
+                                                                                  (bob, texts[0])))
+            for w in analyze(snd, text).alignment.words]
+    return take, " ".join([texts[0], texts[1], texts[0]]), cuts, kept
+
+
+def test_where_the_pass_over_two_cuts_finds_no_path_each_is_passed_alone(monkeypatch):
+    """Two lines cut close together share one pass of the cut search (alignment.edges.left_out); on a
+    hard voice that pass can find no path (the hoarse MFA clip: 18 % of a cut found).  Each cut's
+    words are then passed alone, and both cuts are found."""
+    from addon.engine.alignment import edges
+
+    real, held = edges.loop_pass, []
+
+    def no_path_over_both(audio, prons, first, gaps, *args, **kw):
+        held.append(len(gaps))
+        if kw.get("one") and len(gaps) > 2 * edges.AROUND + 1:
+            return None
+        return real(audio, prons, first, gaps, *args, **kw)
+
+    monkeypatch.setattr(edges, "loop_pass", no_path_over_both)
+    take, text, cuts, kept = _two_cuts()
+    r = analyze(take, text)
+    assert max(held) > 2 * edges.AROUND + 1             # the two cuts did share a pass
+    for spans in cuts:
+        t = np.arange(spans[0][0], spans[-1][1], 0.01)
+        said, inside = np.zeros(len(t), bool), np.zeros(len(t), bool)
+        for a, b in spans:
+            said |= (t >= a) & (t < b)
+        for a, b, _ in r.alignment.unscripted:
+            inside |= (t >= a) & (t < b)
+        assert inside[said].mean() >= 0.9
+    own = [w for w in r.alignment.words if not w.recognized]
+    assert sum(abs(w.start - a) <= 0.1 and abs(w.end - b) <= 0.1 for w, (a, b) in zip(own, kept)) >= len(kept) - 1
+
+
 def test_speech_known_to_be_cut_is_unscripted_up_to_the_words_beside_it():
     """Uncovered speech keeps a margin from the spoken words (the edge of a word placed a little off is
     not unscripted speech); a stretch the cut pass silenced is unscripted right up to them."""

@@ -145,10 +145,11 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     such stretch (:data:`AROUND` on either side) lets one loop of any phones
     come between two of them (a cut is one stretch: with a loop allowed at
     every gap, words of the script are taken for words said in the cut
-    speech, and placed there between two loops).  The loops of
-    :data:`MIN_LOOP` s or more in which words are heard are returned, for the
-    caller to align the transcript with them silenced and check the take
-    again."""
+    speech, and placed there between two loops); where the stretches are
+    close enough to share a pass and it finds no path, each is passed
+    alone.  The loops of :data:`MIN_LOOP` s or more in which words are heard
+    are returned, for the caller to align the transcript with them silenced
+    and check the take again."""
     script = al.script
     n = len(prons)
     if len(script) != n or n < 2 or snd.duration > MAX_CLIP:
@@ -165,24 +166,39 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     for (k, p), heard in zip(long, words_heard(snd, [(p.start, p.end) for _, p in long], settings)):
         if heard:
             centres.append(k + 1 if p.end > (script[k].start + script[k].end) / 2 else k)
-    windows: list[list[int]] = []
+    # The gaps around each centre (lo..hi); those that overlap make one window, passed at once.
+    windows: list[list[tuple[int, int]]] = []
     for g in sorted(set(centres)):
         lo, hi = max(1, g - AROUND), min(n - 1, g + AROUND)
-        if windows and lo <= windows[-1][1]:
-            windows[-1][1] = max(hi, windows[-1][1])
+        if windows and lo <= max(h for _, h in windows[-1]):
+            windows[-1].append((lo, hi))
         else:
-            windows.append([lo, hi])
+            windows.append([(lo, hi)])
     out = []
-    for lo, hi in windows:
-        # The words the pass holds: CONTEXT more on either side of the gaps, as the words next to
-        # the gaps may have been pulled far from their own speech; from the clip's start or to its end.
-        first, last = max(0, lo - CONTEXT), min(n - 1, hi - 1 + CONTEXT)
-        t0 = script[first].start if first > 0 else 0.0
-        t1 = script[last].end if last < n - 1 else snd.duration
-        segs = loop_pass(snd, prons[first:last + 1], first, set(range(lo - first, hi - first + 1)), settings,
-                         t0, t1, beam=GAP_BEAM, one=True, penalty=GAP_PENALTY)
+    for parts in windows:
+        segs = _one_loop(snd, al, prons, settings, parts[0][0], max(h for _, h in parts))
+        if segs is None and len(parts) > 1:
+            # No path through the whole window (a hard voice, where a loop fits any speech better
+            # than the words and their path falls out of the beam): each centre's gaps alone.
+            segs = [sg for lo, hi in parts for sg in _one_loop(snd, al, prons, settings, lo, hi) or []]
         out += [(a, b) for a, b in loops(segs or []) if b - a >= MIN_LOOP]
-    return [span for span, heard in zip(out, words_heard(snd, out, settings)) if heard]
+    spans = sorted(set(out))
+    return [span for span, heard in zip(spans, words_heard(snd, spans, settings)) if heard]
+
+
+def _one_loop(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]], settings: AlignSettings,
+              lo: int, hi: int) -> list[tuple[str, float, float]] | None:
+    """The segments of a word pass over the words around the gaps before
+    words ``lo``..``hi`` of the transcript, one loop of any phones at one of
+    those gaps; None where it finds no path."""
+    script, n = al.script, len(prons)
+    # The words the pass holds: CONTEXT more on either side of the gaps, as the words next to
+    # the gaps may have been pulled far from their own speech; from the clip's start or to its end.
+    first, last = max(0, lo - CONTEXT), min(n - 1, hi - 1 + CONTEXT)
+    t0 = script[first].start if first > 0 else 0.0
+    t1 = script[last].end if last < n - 1 else snd.duration
+    return loop_pass(snd, prons[first:last + 1], first, set(range(lo - first, hi - first + 1)), settings,
+                     t0, t1, beam=GAP_BEAM, one=True, penalty=GAP_PENALTY)
 
 
 def heard_in(al: Alignment, spans: list[tuple[float, float]]) -> bool:
