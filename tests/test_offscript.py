@@ -184,6 +184,31 @@ def _two_cuts():
     return take, " ".join([texts[0], texts[1], texts[0]]), cuts, kept
 
 
+def _inside(al, spans) -> float:
+    """The share of the speech of ``spans`` (the words of a cut line) inside ``al.unscripted``."""
+    t = np.arange(spans[0][0], spans[-1][1], 0.01)
+    said, inside = np.zeros(len(t), bool), np.zeros(len(t), bool)
+    for a, b in spans:
+        said |= (t >= a) & (t < b)
+    for a, b, _ in al.unscripted:
+        inside |= (t >= a) & (t < b)
+    return float(inside[said].mean())
+
+
+def _in_place(al, kept) -> int:
+    own = [w for w in al.words if not w.recognized]
+    return sum(abs(w.start - a) <= 0.1 and abs(w.end - b) <= 0.1 for w, (a, b) in zip(own, kept))
+
+
+def test_two_lines_cut_close_together_are_both_unscripted():
+    """The cut search's pass holds one loop; two cuts close together share it, and the second is found
+    when the search is made again with the first silenced (it was 67 % unscripted, one word off)."""
+    take, text, cuts, kept = _two_cuts()
+    r = analyze(take, text)
+    assert [_inside(r.alignment, spans) >= 0.9 for spans in cuts] == [True, True]
+    assert _in_place(r.alignment, kept) == len(kept)
+
+
 def test_where_the_pass_over_two_cuts_finds_no_path_each_is_passed_alone(monkeypatch):
     """Two lines cut close together share one pass of the cut search (alignment.edges.left_out); on a
     hard voice that pass can find no path (the hoarse MFA clip: 18 % of a cut found).  Each cut's
@@ -202,16 +227,8 @@ def test_where_the_pass_over_two_cuts_finds_no_path_each_is_passed_alone(monkeyp
     take, text, cuts, kept = _two_cuts()
     r = analyze(take, text)
     assert max(held) > 2 * edges.AROUND + 1             # the two cuts did share a pass
-    for spans in cuts:
-        t = np.arange(spans[0][0], spans[-1][1], 0.01)
-        said, inside = np.zeros(len(t), bool), np.zeros(len(t), bool)
-        for a, b in spans:
-            said |= (t >= a) & (t < b)
-        for a, b, _ in r.alignment.unscripted:
-            inside |= (t >= a) & (t < b)
-        assert inside[said].mean() >= 0.9
-    own = [w for w in r.alignment.words if not w.recognized]
-    assert sum(abs(w.start - a) <= 0.1 and abs(w.end - b) <= 0.1 for w, (a, b) in zip(own, kept)) >= len(kept) - 1
+    assert [_inside(r.alignment, spans) >= 0.9 for spans in cuts] == [True, True]
+    assert _in_place(r.alignment, kept) >= len(kept) - 1
 
 
 def test_speech_known_to_be_cut_is_unscripted_up_to_the_words_beside_it():

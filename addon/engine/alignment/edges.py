@@ -59,6 +59,10 @@ GAP_BEAM = 1e-60
 #: long loop whose every phone pays it; the words around the cut otherwise take the cut speech
 #: again (MFA clips, ten words cut: 53-88 % of their speech found at 1e-2, 18-84 % at 1e-3).
 GAP_PENALTY = 1e-2
+#: The search for speech left out is made at most this many times: a second time on the take
+#: realigned with the first one's loops silenced, for a second cut (two lines cut close together
+#: share one pass, which holds one loop).
+CUT_ROUNDS = 2
 
 
 def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],
@@ -134,7 +138,7 @@ def said_at_the_end(first: Alignment, again: Alignment, end: float) -> bool:
 
 
 def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
-             settings: AlignSettings) -> list[tuple[float, float]]:
+             settings: AlignSettings, known: Sequence[tuple[float, float]] = ()) -> list[tuple[float, float]]:
     """(start, end) s of the speech the transcript leaves out between its
     words (a cut line, an ad-lib), when the check of the take (:mod:`.verify`)
     found unscripted speech there in the alignment ``al``, or a word there
@@ -149,14 +153,17 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     close enough to share a pass and it finds no path, each is passed
     alone.  The loops of :data:`MIN_LOOP` s or more in which words are heard
     are returned, for the caller to align the transcript with them silenced
-    and check the take again."""
+    and check the take again; unscripted speech on the stretches ``known``
+    (found before, and silenced in ``snd``) is not looked around again."""
     script = al.script
     n = len(prons)
     if len(script) != n or n < 2 or snd.duration > MAX_CLIP:
         return []
     said = [k for k, w in enumerate(script) if w.spoken]
     centres = []        # the gaps (before word k) the speech left out is looked for around
-    for start, _end, _ in al.unscripted:
+    for start, end, _ in al.unscripted:
+        if any(start < b and a < end for a, b in known):
+            continue
         before = sum(script[k].end <= start + SHIFT for k in said)
         if 0 < before < len(said):      # words on both sides: not speech before or after the script
             centres.append(said[before - 1] + 1)

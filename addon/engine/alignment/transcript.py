@@ -19,7 +19,7 @@ from ..audio import Audio
 from ..errors import AlignmentError, LipSyncError
 from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words
 from .core import align, check_transcript_matches
-from .edges import edges, heard_in, left_out, said_at_the_end
+from .edges import CUT_ROUNDS, edges, heard_in, left_out, said_at_the_end
 from .model import AlignSettings, Alignment
 from .room import lay_out, room
 from .verify import verify
@@ -77,16 +77,19 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
             second = again(inner)
             if second is not None and (bounds[1] >= snd.duration or not said_at_the_end(al, second, bounds[1])):
                 al, clip = second, inner
-        cut = left_out(snd, al, phones, settings)
-        if cut:
+        cut: list[tuple[float, float]] = []
+        for _ in range(CUT_ROUNDS):
             # Speech left out between the script's words (:func:`.edges.left_out`): the transcript is
-            # aligned with it silenced too, so the words around it keep to their own speech.
-            quiet = clip.silenced(cut)
-            second = again(quiet, cut=cut)
-            if second is None or not heard_in(second, cut):
-                cut = []
-            else:
-                al, clip = second, quiet
+            # aligned with it silenced too, so the words around it keep to their own speech.  Then once
+            # more with that speech silenced, for a second cut the first search's one loop left.
+            more = left_out(clip if cut else snd, al, phones, settings, known=cut)
+            if not more:
+                break
+            quiet = clip.silenced(more)
+            second = again(quiet, cut=cut + more)
+            if second is None or not heard_in(second, more):
+                break
+            al, clip, cut = second, quiet, cut + more
         stand_in = room(clip, al, phones, settings)
         if stand_in:
             # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
