@@ -8,9 +8,10 @@ word has at least half of its phones squeezed to that length.  For each one,
 :func:`room` makes a word pass over the words around it in which a loop of
 any phones may take its place; where the loop does, over less time than the
 word's phones need (:data:`ROOM`), or over more but still against a
-strongly weighted word (:data:`STRICT`), the word is laid on the loop's speech: the transcript is
-aligned again with the phones the loop heard standing in for the word's, and
-:func:`lay_out` then spreads the word's own phones over the time it got.
+strongly weighted word (:data:`STRICT`), the word is laid on the loop's
+speech: the transcript is aligned again with the phones the loop heard
+standing in for the word's, and :func:`lay_out` then spreads the word's own
+phones over the time it got.
 Words said as written fit their speech: on TIMIT's 61 sentences and the
 reference clips of ``bench/alignment_accuracy.py``, no line changes.
 """
@@ -37,9 +38,9 @@ ROOM = 0.6
 #: A wrong word can also just fit the speech it stands for ("elephant" for "me": its phones need
 #: 0.21 s, "me" took 0.22 s).  Over more than ROOM, the loop takes the word's place where it still
 #: does with this grammar weight against the word's (1 - it), the acoustic evidence the loop must
-#: have over the word.  No crowded
-#: word said as written takes a loop on TIMIT's 61 sentences or the reference clips at 1e-30; at
-#: 1e-25, a fast "pretty" does; at 1e-35, 36 of 48 "elephant"s for a short word still do.
+#: have over the word.  No crowded word said as written takes a loop on TIMIT's 61 sentences or
+#: the reference clips at 1e-30; at 1e-25, a fast "pretty" does; at 1e-35, 36 of 48 "elephant"s
+#: for a short word still do.
 STRICT = 1e-30
 #: ... and where that loop lies within the word's aligned time, give or take this (s): a loop
 #: further out has taken speech a wrong word beside it left over ("won't" after "blue" for "thinking").
