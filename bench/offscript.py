@@ -238,12 +238,16 @@ def _swap(snd, base, tokens, k, wrong) -> tuple[float, float] | None:
     """How far (ms) the starts of the words before and after transcript word
     ``k`` move when ``wrong`` replaces it; None if the words differ in number."""
     r = analyze(snd, " ".join(tokens[:k] + [wrong] + tokens[k + 1:]))
-    bw = [w for w in base.alignment.words if not w.recognized]
-    sw = [w for w in r.alignment.words if not w.recognized]
+    bw, sw = base.alignment.script, r.alignment.script
     if len(bw) != len(sw):
         return None
     j = next(i for i, w in enumerate(sw) if w.text == wrong and bw[i].text != wrong)
     return tuple(abs(sw[i].start - bw[i].start) * 1000 if 0 <= i < len(sw) else 0.0 for i in (j - 1, j + 1))
+
+
+def _tokens(wav) -> list[str]:
+    """The words of a TIMIT sentence (its .txt without the two sample counts before them)."""
+    return wav.with_suffix(".txt").read_text().split()[2:]
 
 
 def _joined(first, second):
@@ -269,7 +273,7 @@ def around_the_script() -> None:
         return
     files = sorted(timit.glob("*/*.wav"))
     pairs = [(a, b) for a, b in zip(files[::4], files[1::4]) if a.parent == b.parent]
-    text = {p: " ".join(p.with_suffix(".txt").read_text().split()[2:]) for pair in pairs for p in pair}
+    text = {p: " ".join(_tokens(p)) for pair in pairs for p in pair}
     for where in ("after", "before"):
         kept, inside = 0, []
         for a, b in pairs:
@@ -278,7 +282,7 @@ def around_the_script() -> None:
             alone = analyze(first if where == "after" else second, text[line]).alignment.words
             extra = [(w.start, w.end) for w in analyze(other, text[b if where == "after" else a]).alignment.words]
             al = analyze(_joined(first, second), text[line]).alignment
-            own = [w for w in al.words if not w.recognized]
+            own = al.script
             kept += max(max(abs(w.start - offset - v.start), abs(w.end - offset - v.end))
                         for w, v in zip(own, alone)) <= 0.1
             if where == "after":
@@ -302,7 +306,7 @@ def cut_line() -> None:
         return
     files = sorted(timit.glob("*/*.wav"))
     triples = [t for t in zip(files[::4], files[1::4], files[2::4]) if t[0].parent == t[1].parent == t[2].parent]
-    text = {p: " ".join(p.with_suffix(".txt").read_text().split()[2:]) for t in triples for p in t}
+    text = {p: " ".join(_tokens(p)) for t in triples for p in t}
     covered, shown, kept, cpu, seconds = [], [], 0, 0.0, 0.0
     for a, b, c in triples:
         clips = [audio_mod.load(p) for p in (a, b, c)]
@@ -319,7 +323,7 @@ def cut_line() -> None:
         shown.append(float((r.curves[vowels].max(axis=1) >= OPEN).mean()))
         alone = [(w.start, w.end) for w in analyze(clips[0], text[a]).alignment.words]
         alone += [(w.start + end, w.end + end) for w in analyze(clips[2], text[c]).alignment.words]
-        own = [w for w in r.alignment.words if not w.recognized]
+        own = r.alignment.script
         kept += len(own) == len(alone) and all(abs(w.start - s0) <= 0.1 and abs(w.end - s1) <= 0.1
                                                for w, (s0, s1) in zip(own, alone))
     print(f"{'A line cut from the middle':32s} ({len(triples)} takes of three TIMIT sentences, the middle one "
@@ -337,7 +341,7 @@ def swapped_words() -> None:
         return
     moved = {wrong: [] for wrong in WRONG}
     for f in sorted(timit.glob("*/*.wav")):
-        tokens = f.with_suffix(".txt").read_text().split()[2:]
+        tokens = _tokens(f)
         snd = audio_mod.load(f)
         base = analyze(snd, " ".join(tokens))
         for wrong in WRONG:
@@ -355,7 +359,7 @@ def another_line() -> None:
     if not timit.is_dir():
         return
     files = sorted(timit.glob("*/*.wav"))
-    texts = [" ".join(f.with_suffix(".txt").read_text().split()[2:]) for f in files]
+    texts = [" ".join(_tokens(f)) for f in files]
 
     def outcome(path, text) -> str:
         try:

@@ -149,7 +149,7 @@ def test_a_line_cut_from_the_middle_of_the_transcript_leaves_the_words_around_it
     texts = [(FIXTURES / name).read_text(encoding="utf-8").strip() for name in ("bob_map.txt", "fast_bilabials.txt")]
     take = audio_mod.Audio(np.concatenate([first.samples, cut.samples, last.samples]), first.rate)
     r = analyze(take, " ".join(texts))
-    own = [w for w in r.alignment.words if not w.recognized]
+    own = r.alignment.script
     offset = first.duration + cut.duration
     alone = [(w.start, w.end) for w in analyze(first, texts[0]).alignment.words]
     alone += [(w.start + offset, w.end + offset) for w in analyze(last, texts[1]).alignment.words]
@@ -196,8 +196,8 @@ def _inside(al, spans) -> float:
 
 
 def _in_place(al, kept) -> int:
-    own = [w for w in al.words if not w.recognized]
-    return sum(abs(w.start - a) <= 0.1 and abs(w.end - b) <= 0.1 for w, (a, b) in zip(own, kept))
+    """How many of the transcript's words of ``al`` lie within 0.1 s of ``kept`` (start, end) s."""
+    return sum(abs(w.start - a) <= 0.1 and abs(w.end - b) <= 0.1 for w, (a, b) in zip(al.script, kept))
 
 
 def test_two_lines_cut_close_together_are_both_unscripted():
@@ -338,7 +338,7 @@ def test_a_long_wrong_word_in_place_of_a_short_one_keeps_its_neighbours_in_place
     k = tokens.index(said)
     base = analyze(snd, HELLO_TEXT).alignment.words
     al = analyze(snd, " ".join(tokens[:k] + [wrong] + tokens[k + 1:])).alignment
-    words = [w for w in al.words if not w.recognized]
+    words = al.script
     assert words[k].text == wrong and words[k].spoken
     assert [p.phone for p in al.phones if al.words[p.word_index] is words[k]] == words[k].phones
     for i in (k - 1, k + 1):

@@ -78,9 +78,9 @@ def room(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
         t0 = script[first].start if first > 0 else 0.0
         t1 = script[last].end if last < n - 1 else snd.duration
         window = (snd, prons[first:last + 1], first, k - first, settings, t0, t1)
-        loop = _heard(*window, LOOP_WEIGHT)
+        loop = _loop_in_place(*window, LOOP_WEIGHT)
         if loop and loop[-1][2] - loop[0][1] >= ROOM * SHORTEST_FRAMES * len(prons[k]) * FRAME:
-            loop = _heard(*window, STRICT)
+            loop = _loop_in_place(*window, STRICT)
             if loop and (loop[0][1] < script[k].start - INSIDE or loop[-1][2] > script[k].end + INSIDE):
                 loop = []
         if loop:
@@ -88,7 +88,7 @@ def room(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     return out
 
 
-def _heard(snd: Audio, prons: Sequence[Sequence[str]], first: int, k: int, settings: AlignSettings,
+def _loop_in_place(snd: Audio, prons: Sequence[Sequence[str]], first: int, k: int, settings: AlignSettings,
            t0: float, t1: float, weight: float) -> list[tuple[str, float, float]]:
     """The (phone, start s, end s) of the loop a word pass over ``prons``
     (tokens from ``w<first>``) takes in place of word ``k`` (the grammar's
