@@ -23,9 +23,9 @@ from .phonemes import (CLASSES, MANNER, PHONEMES, SILENCE, VOWELS, is_vowel, pho
                        to_arpabet)
 from .languages import Language, resolve as resolve_language, supported as supported_languages
 from .pronounce import Lexicon, Pronunciation, cmudict
-from .text import Word, describe_skipped, normalize, read_text_file, skipped_words
+from .text import Word, describe_skipped, normalize, read_text_file, skipped_words, stage_direction_gaps
 
 __all__ = ["CLASSES", "MANNER", "PHONEMES", "SILENCE", "VOWELS", "Language", "Lexicon", "Pronunciation", "Word",
            "cmudict", "resolve_language", "supported_languages",
-           "describe_skipped", "is_vowel", "normalize", "phone_class", "read_text_file", "skipped_words",
+           "describe_skipped", "is_vowel", "normalize", "phone_class", "read_text_file", "skipped_words", "stage_direction_gaps",
            "strip_stress", "to_arpabet"]

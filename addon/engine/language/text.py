@@ -173,6 +173,21 @@ def _strip_stage_directions(text: str) -> str:
     return _STAGE.sub(" ", text)
 
 
+def stage_direction_gaps(text: str, language: str | Language | None = None) -> set[int]:
+    """Where the transcript's stage directions (``[laughs]``, ``(sighs)``,
+    ``*breathes*``) stand among its spoken words: ``k`` for one before the
+    ``k``-th word of :func:`normalize` (the number of words: after the last).
+    The sound they stand for is no speech of the script's, and no speech the
+    script leaves out."""
+    gaps = set()
+    for m in _STAGE.finditer(text):
+        try:
+            gaps.add(len(normalize(text[:m.start()], language)))
+        except TranscriptError:
+            gaps.add(0)
+    return gaps
+
+
 def normalize(text: str, language: str | Language | None = None) -> list[Word]:
     """Turn a transcript into the list of words that are spoken, in
     ``language`` (a code or :class:`.languages.Language`; default English).
