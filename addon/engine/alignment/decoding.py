@@ -106,10 +106,14 @@ def _finish(decoder, pcm: bytes, first, mode: str):
     return ("phones", used, phones)
 
 
-def phone_alignment(decoder, pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]]]]:
-    """(word, [(phone, first frame, end frame)]) for every entry of the
-    decoder's last hypothesis (words, silences, fillers), from a state-level
-    alignment pass over ``pcm``.  Raises RuntimeError when pocketsphinx
+def phone_alignment(decoder, pcm: bytes) -> list[tuple[str, list[tuple[str, int, int, int]]]]:
+    """(word, [(phone, first frame, end frame, score)]) for every entry of
+    the decoder's last hypothesis (words, silences, fillers), from a
+    state-level alignment pass over ``pcm``.  A phone's score is its
+    acoustic score summed over its frames, each frame's taken against the
+    best senone of that frame (0 where the phone's own senones are the
+    best; more negative the worse the phone fits the sound: see
+    :attr:`.model.AlignedWord.fit`).  Raises RuntimeError when pocketsphinx
     finds none."""
     decoder.set_alignment()
     decoder.start_utt()
@@ -118,7 +122,7 @@ def phone_alignment(decoder, pcm: bytes) -> list[tuple[str, list[tuple[str, int,
     alignment = decoder.get_alignment()
     if alignment is None:
         raise RuntimeError("no sub-word alignment")
-    return [(w.name, [(p.name, p.start, p.start + p.duration) for p in w]) for w in alignment]
+    return [(w.name, [(p.name, p.start, p.start + p.duration, p.score) for p in w]) for w in alignment]
 
 
 def _phone_pass(decoder, pcm: bytes, got: list[str]):

@@ -7,7 +7,8 @@ such speech pulls the script's first or last words over it: they were
 stretched or moved by seconds, and their own speech was taken for
 unscripted speech.  When the first alignment shows it (the check of the
 take, :mod:`.verify`, found unscripted speech, or a word at either edge
-holds a phone :data:`STRETCHED` s long), :func:`script_bounds` makes one
+holds a phone :data:`STRETCHED` s long in which words are heard),
+:func:`script_bounds` makes one
 more word pass whose grammar lets a loop of any phones take the start and
 the end of the clip.  :func:`edges` keeps what that pass says where it
 moves the script's edge: the caller aligns the transcript to the clip
@@ -91,11 +92,17 @@ def _stretched(al: Alignment) -> list[tuple[int, AlignedPhone]]:
             if p.end - p.start >= STRETCHED and not is_hesitation(script[k].text)]
 
 
-def _pulled(al: Alignment) -> bool:
-    """Whether the first alignment shows the script pulled at an edge."""
+def _pulled(snd: Audio, al: Alignment, settings: AlignSettings) -> bool:
+    """Whether the first alignment shows the script pulled at an edge: the
+    check of the take found unscripted speech, or a word at either edge holds
+    a phone :data:`STRETCHED` s long in which words are heard (a vowel held
+    at the end of a line is heard as one word at most, and costs no pass)."""
+    if al.unscripted:
+        return True
     script = [k for k, w in enumerate(al.script) if w.spoken and not is_hesitation(w.text)]
     edge = set(script[:EDGE_WORDS] + script[-EDGE_WORDS:])
-    return bool(al.unscripted) or any(k in edge for k, _ in _stretched(al))
+    long = [(p.start, p.end) for k, p in _stretched(al) if k in edge]
+    return any(words_heard(snd, long, settings)) if long else False
 
 
 def edges(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
@@ -104,7 +111,7 @@ def edges(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     aligned to, when speech before or after it pulled its first or last
     words in the first alignment ``al``; None to keep ``al``."""
     script = [w for w in al.script if w.spoken]
-    if not script or not _pulled(al):
+    if not script or not _pulled(snd, al, settings):
         return None
     start, end = script_bounds(snd, prons, settings)
     if start is not None and start < script[0].start + SHIFT:

@@ -33,6 +33,18 @@ def word_frames(kind: str, payload) -> list[tuple[int, int]]:
     return payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
 
 
+def median_fit(words, leave=()) -> float | None:
+    """The median fit (:attr:`AlignedWord.fit`) of the ``words`` aligned
+    acoustically, but those at the indices ``leave``; None if none was.  A
+    word is judged against the line's own median: a hoarse, fast or noisy
+    take fits worse all through."""
+    fits = sorted(w.fit for k, w in enumerate(words) if w.fit is not None and k not in leave)
+    if not fits:
+        return None
+    m = len(fits) // 2
+    return float(fits[m] if len(fits) % 2 else (fits[m - 1] + fits[m]) / 2)
+
+
 @dataclass
 class AlignSettings:
     """Knobs of the aligner.  The defaults were measured on real speech."""
@@ -71,6 +83,11 @@ class AlignedWord:
     spoken: bool = True
     #: True for a word recognised from the audio rather than read in a transcript (:mod:`.recognize`).
     recognized: bool = False
+    #: How well the word's phones fit its sound: the acoustic score of its frames in the phone
+    #: pass, each frame's against the best senone of that frame, per frame (0 at best, more
+    #: negative the worse; a word said as written about -10 to -30, a word the audio does not
+    #: hold far below).  None where the phones were not aligned acoustically.
+    fit: float | None = None
 
 
 @dataclass

@@ -151,10 +151,12 @@ def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: Al
     phones: list[AlignedPhone] = []
     for (t0, t1), found in zip(spans, results):
         for text, ph, est in found:
-            ph = _clean([(p, min(t1, t0 + a * FRAME), min(t1, t0 + b * FRAME)) for p, a, b in ph])
+            scores = [(rest[0], b - a) for _, a, b, *rest in ph if rest]
+            fit = sum(x for x, _ in scores) / max(1, sum(n for _, n in scores)) if scores and not est else None
+            ph = _clean([(p, min(t1, t0 + a * FRAME), min(t1, t0 + b * FRAME)) for p, a, b, *_ in ph])
             wi = len(words)
             words.append(AlignedWord(text, ph[0][1], ph[-1][2], [p for p, _, _ in ph], "recognized", est,
-                                     recognized=True))
+                                     recognized=True, fit=fit))
             phones.extend(AlignedPhone(p, a, b, wi, est) for p, a, b in ph)
     return words, phones
 

@@ -17,10 +17,11 @@ from concurrent.futures.process import BrokenProcessPool
 from .. import audio as audio_mod
 from ..audio import Audio
 from ..errors import AlignmentError, LipSyncError
-from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words
+from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words, stage_direction_gaps
 from .core import align, check_transcript_matches
 from .edges import CUT_ROUNDS, edges, heard_in, left_out, said_at_the_end
 from .model import AlignSettings, Alignment
+from . import tempo
 from .room import lay_out, room
 from .verify import verify
 
@@ -34,18 +35,29 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     lexicon = lexicon or Lexicon()
     settings = settings or AlignSettings()
     words = normalize(text, lexicon.language)
+    directions = stage_direction_gaps(text, lexicon.language)
     prons = [lexicon.pronounce(w) for w in words]
     phones = [p.aligned or p.phones for p in prons]
 
     def run(clip: Audio, report=None, stand_in: dict[int, list[str]] | None = None) -> Alignment:
+        """The transcript aligned to ``clip``; speech too fast for the aligner's frames on a slowed
+        copy too (:mod:`.tempo`), the better of the two kept."""
         aligned = [(stand_in or {}).get(k, ph) for k, ph in enumerate(phones)]
-        try:
-            return align(clip, aligned, [w.pause_after for w in words], [w.text for w in words],
-                         [p.source for p in prons], settings, report)
-        except (BrokenProcessPool, MemoryError):
-            raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
-                                 f"{snd.duration / 60:.1f} minutes of audio: split the recording into shorter "
-                                 "lines") from None
+
+        def once(audio: Audio, progress=None) -> Alignment:
+            try:
+                return align(audio, aligned, [w.pause_after for w in words], [w.text for w in words],
+                             [p.source for p in prons], settings, progress)
+            except (BrokenProcessPool, MemoryError):
+                raise AlignmentError(f"the aligner ran out of memory (or a worker process was stopped) on "
+                                     f"{snd.duration / 60:.1f} minutes of audio: split the recording into "
+                                     "shorter lines") from None
+
+        first = once(clip, report)
+        if clip.duration > tempo.LONGEST or not tempo.too_fast(first):
+            return first
+        slow = tempo.scaled(once(tempo.slowed(clip)), tempo.SLOWER, clip.duration)
+        return slow if tempo.better(first, slow) else first
 
     english = lexicon.language.is_english
 
@@ -62,12 +74,12 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         second.duration = snd.duration
         if stand_in:
             lay_out(second, {k: phones[k] for k in stand_in})
-        verify(snd, second, settings, english=english, left_out=cut)
+        verify(snd, second, settings, english=english, left_out=cut, directions=directions)
         return second
 
     al = run(snd, progress)
     if check_take:
-        verify(snd, al, settings, english=english)
+        verify(snd, al, settings, english=english, directions=directions)
         clip = snd
         bounds = edges(snd, al, phones, settings)
         if bounds is not None:
@@ -94,7 +106,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         if stand_in:
             # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
             al = again(clip, stand_in, cut) or al
-    check_transcript_matches(al, squeeze=english)
+    check_transcript_matches(al, judge_fit=english)
     _show(al, prons)
     skipped = skipped_words(text, lexicon.language)
     if skipped:

@@ -24,12 +24,14 @@ acoustic evidence:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 
 from ..audio import Audio
-from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment, at_shortest
+from .decoding import _decoder
+from .fillers import base_token
+from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment, at_shortest, median_fit
 from .recognize import recognize_spans
 from .speech import frame_levels, runs, speech_mask
 
@@ -37,8 +39,15 @@ from .speech import frame_levels, runs, speech_mask
 SUSPECT_SPEECH = 0.5
 #: A word is heard when at least this share of its phones is matched.
 HEARD = 0.5
-#: A checked run this close to the transcript's end (start), in words, reaches it.
+#: A checked run this close to the transcript's end, in words, reaches it.
 EDGE = 3
+#: Words fit their sound poorly when at least this much worse (per frame) than the line's median
+#: word.  Appended words nobody says, aligned on noise or on the end of the last word said, fit
+#: 28-92 worse (bench/false_alarms.py, appended to the MFA lines); the last words of a fast or
+#: hoarse line said as written at most 16 worse.
+POOR_FIT = 25.0
+#: Words left unspoken hold at least this many phones in all (a shorter run is too little evidence).
+MIN_PHONES = 3
 #: Speech (s) left uncovered by the spoken words that is recognised.
 MIN_UNSCRIPTED = 0.4
 #: Runs of uncovered speech closer than this (s) are one stretch.
@@ -48,6 +57,8 @@ MIN_HEARD_WORDS = 2
 MIN_HEARD_PHONES = 5
 #: Speech within this much of a spoken word is that word's (s).
 WORD_MARGIN = 0.15
+#: Unscripted speech holds at least this much (s) within VOICED_DB (dB) of the line's voice.
+MIN_VOICED, VOICED_DB = 0.15, 20.0
 
 
 def _speech_share(mask: np.ndarray, w: AlignedWord) -> float:
@@ -61,31 +72,38 @@ def _squeezed(w: AlignedWord) -> bool:
     return len(w.phones) >= 2 and at_shortest(w.end - w.start, len(w.phones))
 
 
+def _poor(words: Sequence[AlignedWord], block: Sequence[int]) -> bool:
+    """Whether the words ``block`` fit their sound :data:`POOR_FIT` worse than
+    the line's other words (the fit of each frame, over the block), or were
+    placed by estimate."""
+    if any(words[k].estimated for k in block):
+        return True
+    line = median_fit(words, set(block))
+    frames = [(words[k].fit, max(1.0, (words[k].end - words[k].start) / FRAME)) for k in block]
+    if line is None or any(f is None for f, _ in frames):
+        return False
+    return sum(f * n for f, n in frames) / sum(n for _, n in frames) <= line - POOR_FIT
+
+
 def _suspect_runs(words: list[AlignedWord], mask: np.ndarray) -> list[tuple[int, int]]:
-    """[first, end) word indices of the runs of suspect words to check: runs
-    holding a word placed by estimate, and runs at the transcript's end or
-    start.  A run within :data:`EDGE` words of the end (start) reaches it:
-    appended words may be placed on noise that passes for speech, between
-    the suspects; and a run at the end takes in the words squeezed against
+    """[first, end) word indices of the run of suspect words at the
+    transcript's end to check (none, or one).  Suspects are the words placed
+    by estimate, those lying mostly off the speech and those that fit their
+    sound poorly (:func:`_poor`).  A run within :data:`EDGE` words of the end
+    reaches it: appended words may be placed on noise that passes for
+    speech, between the suspects; and it takes in the words squeezed against
     it (each phone as short as the decoder makes one), which the aligner
     puts on the last sound of the last word said."""
-    estimated = np.array([w.estimated for w in words])
-    suspect = estimated | np.array([_speech_share(mask, w) < SUSPECT_SPEECH for w in words])
     n = len(words)
-    out = []
-    for i, j in runs(suspect).tolist():
-        has_estimate = bool(estimated[i:j].any())
-        if n - j <= EDGE:
-            j = n
-        if i <= EDGE:
-            i = 0
-        if has_estimate or i == 0 or j == n:
-            while j == n and i > 0 and _squeezed(words[i - 1]):
-                i -= 1      # a word squeezed against the run at the end: the first of the appended words
-            if out and out[-1][1] >= i:
-                i = out.pop()[0]
-            out.append((i, j))
-    return out
+    suspect = np.array([w.estimated or _speech_share(mask, w) < SUSPECT_SPEECH or _poor(words, [k])
+                        for k, w in enumerate(words)])
+    ends = [(i, j) for i, j in runs(suspect).tolist() if n - j <= EDGE]
+    if not ends:
+        return []
+    i = ends[0][0]
+    while i > 0 and _squeezed(words[i - 1]):
+        i -= 1      # a word squeezed against the run at the end: the first of the appended words
+    return [(i, n)]
 
 
 def edit_path(a: list, b: list, same=lambda x, y: x == y) -> list[tuple[int, int, bool]]:
@@ -123,12 +141,68 @@ def _matched(run_phones: list[str], heard: list[str]) -> np.ndarray:
     return hit
 
 
+def dropped(snd: Audio, words: list[AlignedWord], a: int, b: int, settings: AlignSettings) -> set[int]:
+    """The words ``a``..``b - 1`` of ``words`` that a word pass over their
+    stretch leaves out when each of them may be left out: the audio holds
+    no speech that fits them better than silence or noise.  The words
+    beside the run (one on either side) are kept, and anchor the pass;
+    the stretch runs from the start of the word before to the end of the
+    word after (or the clip's start or end).  A pass that finds no path
+    leaves none out."""
+    lo, hi = max(0, a - 1), min(len(words), b + 1)
+    t0 = words[lo].start if lo < a else 0.0
+    t1 = words[hi - 1].end if hi > b else snd.duration
+    prons = [words[k].phones or ["AH"] for k in range(lo, hi)]
+    body = " ".join(f"w{k}" if k < a or k >= b else f"[ w{k} ]" for k in range(lo, hi))
+    try:
+        decoder = _decoder(prons, lo, settings)
+        decoder.add_jsgf_string("optional", f"#JSGF V1.0;\ngrammar optional;\npublic <s> = {body};\n")
+        decoder.activate_search("optional")
+        decoder.start_utt()
+        decoder.process_raw(snd.pcm16(t0, t1), full_utt=True)
+        decoder.end_utt()
+        segs = decoder.seg()
+    except RuntimeError:
+        return set()
+    if segs is None:
+        return set()
+    found = {base_token(sg.word) for sg in segs}
+    if any(f"w{k}" not in found for k in range(lo, hi) if k < a or k >= b):
+        return set()
+    return {k for k in range(a, b) if f"w{k}" not in found}
+
+
 def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings) -> list[int]:
+    """The words of ``al`` the audio does not hold: the last words of the
+    transcript, in a suspect run (:func:`_suspect_runs`), that a word pass
+    leaves out when it may (:func:`dropped`), of whose phones under
+    :data:`HEARD` are heard where they would be, that lie mostly off the
+    speech (:data:`SUSPECT_SPEECH`: the aligner found no speech for them)
+    and that fit their sound poorly (:func:`_poor`), at least
+    :data:`MIN_PHONES` phones in all."""
     words = al.words
-    out: list[int] = []
+    n = len(words)
+
+    def absent(block: Sequence[int]) -> bool:
+        """Enough phones, mostly off the speech, fitting poorly: the cheap evidence, weighed first.
+        Words placed by estimate (the aligner found no place for them) lie where the estimate put
+        them, which says nothing: the speech under the block's other words is weighed."""
+        placed = [k for k in block if not words[k].estimated]
+        frames = np.concatenate([np.zeros(0, bool)] + [mask[int(round(words[k].start / FRAME)):
+                                                            max(int(round(words[k].start / FRAME)) + 1,
+                                                                int(round(words[k].end / FRAME)))]
+                                                       for k in placed])
+        return (sum(len(words[k].phones) for k in block) >= MIN_PHONES
+                and (float(frames.mean()) if len(frames) else 0.0) < SUSPECT_SPEECH and _poor(words, block))
+
     for a, b in _suspect_runs(words, mask):
+        if not any(absent(range(k, n)) for k in range(a, n)):
+            continue
+        gone = dropped(snd, words, a, b, settings)
+        if n - 1 not in gone:
+            continue
         t0 = words[a - 1].end if a > 0 else 0.0
-        t1 = words[b].start if b < len(words) else snd.duration
+        t1 = snd.duration
         fa, fb = int(t0 / FRAME), int(np.ceil(t1 / FRAME))
         heard: list[str] = []
         if t1 - t0 >= 0.05 and mask[fa:fb].any():
@@ -136,22 +210,46 @@ def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettin
             heard = [p for w in found for p in w.phones]
         run_phones = [p for w in words[a:b] for p in w.phones]
         hit = _matched(run_phones, heard)
-        k = 0
+        unheard, k = set(), 0
         for wi in range(a, b):
-            n = len(words[wi].phones)
-            if n and hit[k:k + n].mean() < HEARD:
-                out.append(wi)
-            k += n
-    return out
+            m = len(words[wi].phones)
+            if wi in gone and (not m or hit[k:k + m].mean() < HEARD):
+                unheard.add(wi)
+            k += m
+        block = []
+        for wi in range(n - 1, a - 1, -1):      # the words left out and not heard, back from the end
+            if wi not in unheard:
+                break
+            block.insert(0, wi)
+        if block and absent(block):
+            return block
+    return []
 
 
-def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings,
-                left_out: Sequence[tuple[float, float]] = ()) -> list[tuple[float, float]]:
+def voice_level(levels: np.ndarray, al: Alignment) -> float:
+    """The level (dBFS) of the line's voice: the 90th percentile of the frame
+    ``levels`` on the transcript's spoken words (of the whole clip if none)."""
+    on = np.zeros(len(levels), bool)
+    for w in al.script:
+        if w.spoken:
+            on[int(w.start / FRAME):int(np.ceil(w.end / FRAME))] = True
+    return float(np.percentile(levels[on] if on.any() else levels, 90))
+
+
+def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, levels: np.ndarray, settings: AlignSettings,
+                left_out: Sequence[tuple[float, float]] = (), directions: Collection[int] = ()
+                ) -> list[tuple[float, float]]:
     """Stretches of speech no spoken word lies on, as (start, end) s; runs
     of such speech less than :data:`JOIN_GAP` apart and between the same two
-    words are one stretch (recognised together, in context).  The stretches
-    ``left_out`` (speech known to be cut from the transcript) are uncovered
-    up to the words beside them, without :data:`WORD_MARGIN`."""
+    words are one stretch (recognised together, in context).  A stretch
+    holds at least :data:`MIN_UNSCRIPTED` s of speech, :data:`MIN_VOICED` s of
+    it within :data:`VOICED_DB` of the line's voice (:func:`voice_level`): a
+    breath, a lip smack, the decay of the last word or room noise is
+    quieter.  Stretches between two words where the transcript has a stage
+    direction (``directions``: gaps, :func:`..language.stage_direction_gaps`)
+    are the sound it stands for.  The stretches ``left_out`` (speech known to
+    be cut from the transcript) are uncovered up to the words beside them,
+    without :data:`WORD_MARGIN`."""
     covered = np.zeros(len(mask), bool)
     for w in al.words:
         if w.spoken:
@@ -165,10 +263,20 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
             joined[-1][1] = j
         else:
             joined.append([i, j])
+    loud = levels[:len(mask)] >= voice_level(levels, al) - VOICED_DB
+    script = al.script
+    said = [k for k, w in enumerate(script) if w.spoken]
     spans = []
     for i, j in joined:
-        if float(mask[i:j].sum()) * FRAME >= MIN_UNSCRIPTED:
-            spans.append((i * FRAME, min(snd.duration, j * FRAME)))
+        if float(mask[i:j].sum()) * FRAME < MIN_UNSCRIPTED or float((mask[i:j] & loud[i:j]).sum()) * FRAME < MIN_VOICED:
+            continue
+        if directions:      # the gaps between the spoken words on either side
+            before = sum(script[k].end <= i * FRAME + WORD_MARGIN for k in said)
+            lo = said[before - 1] + 1 if before else 0
+            hi = said[before] if before < len(said) else len(script)
+            if any(lo <= g <= hi for g in directions):
+                continue
+        spans.append((i * FRAME, min(snd.duration, j * FRAME)))
     return spans
 
 
@@ -192,11 +300,15 @@ def _plural(n: int, word: str) -> str:
 
 
 def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, english: bool = True,
-           left_out: Sequence[tuple[float, float]] = ()) -> Alignment:
+           left_out: Sequence[tuple[float, float]] = (), directions: Collection[int] = ()) -> Alignment:
     """Mark the transcript's unspoken words and recognise the unscripted
     speech of ``al`` (aligned to ``snd``), in place; returns ``al``.
     ``left_out``: stretches known to hold speech cut from the transcript
-    (:func:`.edges.left_out`), unscripted up to the words beside them.
+    (:func:`.edges.left_out`), unscripted up to the words beside them;
+    ``directions``: where the transcript has stage directions (:func:`_unscripted`).
+    Uncovered speech in which no words are heard is a breath or a noise:
+    the aligner's warning of speech the transcript's words do not cover
+    gives way to this judgement.
 
     Recognition is English: in a line in another language (not ``english``)
     the unscripted speech is animated from the phones heard, and its words
@@ -204,7 +316,10 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
     settings = settings or AlignSettings()
     if not al.words:
         return al
-    mask, _ = speech_mask(frame_levels(snd), snd)
+    levels = frame_levels(snd)
+    mask, _ = speech_mask(levels, snd)
+    al.warnings = [w for w in al.warnings if "not covered by the transcript's words" not in w]
+    al.notes = [n for n in al.notes if "not covered by the transcript's words" not in n]
     gone = set(_unspoken(snd, al, mask, settings))
     if gone:
         last_end = 0.0
@@ -222,7 +337,7 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
         al.notes.insert(0, warning)
         al.warnings.insert(0, warning)
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
-    spans = _unscripted(snd, al, mask, settings, left_out)
+    spans = _unscripted(snd, al, mask, levels, settings, left_out, directions)
     found, phones = recognize_spans(snd, spans, settings) if spans else ([], [])
     spans = [(t0, t1) for t0, t1 in spans if _heard(found, t0, t1)]
     keep = [k for k, w in enumerate(found) if any(t0 <= w.start < t1 for t0, t1 in spans)]
@@ -240,8 +355,6 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
             text = " ".join(w.text for w in found if t0 <= w.start < t1 and w.text)
             al.unscripted.append((t0, t1, text))
         seconds = sum(b - a for a, b in spans)
-        al.warnings = [w for w in al.warnings if "not covered by the transcript's words" not in w]
-        al.notes = [n for n in al.notes if "not covered by the transcript's words" not in n]
         stretches = f"{len(spans)} stretch{'es' if len(spans) != 1 else ''}"
         how = "recognition" if english else "the sounds the English recogniser heard (no words: it knows English only)"
         note = (f"{seconds:.1f} s of speech not in the transcript ({stretches}), animated from {how}: "
