@@ -15,8 +15,7 @@ import bpy
 
 from ..engine import conventions, expression, pipeline, visemes
 from ..engine.output import Result
-from ..engine.presets import Preset
-from ..engine.render import viseme_set_for
+from ..engine.presets import Preset, viseme_set_for
 from ..engine import mapping as mapping_mod
 from ..engine.alignment import AlignSettings
 from ..engine.language import resolve_language

@@ -33,7 +33,8 @@ from .framerate import parse_fps
 from .importers import END_TOLERANCE, read_alignment
 from .language import Lexicon, resolve_language
 from .output import Result
-from .render import check_model, render, viseme_set_for
+from .coarticulation import check_model
+from .render import render
 
 #: Shorter audio cannot hold a spoken word (s).
 MIN_SPEECH = 0.1
@@ -146,8 +147,8 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
     fps = parse_fps(fps)
     lang = resolve_language(language)
     background = None
-    preset = presets.load(emotion) if isinstance(emotion, (str, os.PathLike)) else presets.as_preset(emotion)
-    vset = viseme_set_for(preset, viseme_set)
+    preset = presets.as_preset(emotion)
+    vset = presets.viseme_set_for(preset, viseme_set)
     check_model(coarticulation_model)
     folder = os.path.dirname(os.path.abspath(transcript_path)) if transcript_path else None
     lookup = _once_per_name(emotion_lookup or presets.finder(folder))

@@ -22,21 +22,12 @@ import numpy as np
 from . import arousal as arousal_mod
 from . import coarticulation, expression, pauses, prosody, visemes, weights
 from .alignment import Alignment
+from .coarticulation import check_model
 from .emotion_track import DEFAULT_FADE, Change, mix
 from .errors import LipSyncError
 from .framerate import frame_times
 from .language import phone_class
-from .presets import Preset
-
-#: The coarticulation models.
-MODELS = ("dominance", "rules")
-
-
-def check_model(model: str) -> str:
-    """``model`` if it names a coarticulation model, else a clear error."""
-    if model not in MODELS:
-        raise LipSyncError(f"unknown coarticulation model {model!r}: use {' or '.join(MODELS)}")
-    return model
+from .presets import Preset, viseme_set_for
 
 
 def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: Preset) -> np.ndarray:
@@ -96,19 +87,6 @@ def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats
     out = coarticulation.enforce_closures(out, times, events, preset.closure_strength)
     out = np.clip(out * preset.gain, 0.0, 1.0)
     return w, times, out
-
-
-def viseme_set_for(preset: Preset, viseme_set: str | None = None) -> visemes.VisemeSet:
-    """The viseme set to use: ``viseme_set`` (default: ``default``), unless
-    the preset was learned from animation, whose set and poses it carries."""
-    learned = preset.learned
-    if learned is None:
-        return visemes.load(viseme_set or "default")
-    base = visemes.load(learned.viseme_set)
-    if viseme_set is not None and visemes.load(viseme_set).name != base.name:
-        raise LipSyncError(f"preset {preset.name!r} was learned with the {base.name!r} viseme set; "
-                           f"it cannot drive {viseme_set!r}")
-    return visemes.with_targets(base, learned.targets)
 
 
 @dataclass
