@@ -59,7 +59,7 @@ def the_line(tmp):
 
 def main():
     import addon
-    from addon.blender import compat, keying, run, sources
+    from addon.blender import compat, keying, run, sources, userdata
 
     tmp = tempfile.mkdtemp()
     path, text, duration, label = the_line(tmp)
@@ -83,7 +83,7 @@ def main():
           f"(target <= 0.1)")
 
     clip = sources.strip_clip(scene, sources.strip_by_name(scene, "line"))
-    opts = run.Options(scene.emotive_lipsync.preset())
+    opts = run.Options(userdata.panel_preset(scene.emotive_lipsync))
     again = run.generate(scene, rig, clip, text, opts)
     keying.clear(rig)
     fresh = run.generate(scene, rig, clip, text, opts)

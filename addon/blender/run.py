@@ -52,7 +52,7 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     ``tolerance`` 0 keys every frame; without it the panel's (when Reduce
     Keys is on).  Paths may start with ``//`` (relative to the .blend)."""
     st = scene.emotive_lipsync
-    preset = userdata.load_preset(emotion) if emotion else st.preset()
+    preset = userdata.load_preset(emotion) if emotion else userdata.panel_preset(st)
     coarticulation = coarticulation or st.coarticulation
     if coarticulation not in COARTICULATION:
         raise LipSyncError(f"{coarticulation!r} is not a coarticulation model: use {' or '.join(COARTICULATION)}")

@@ -21,6 +21,7 @@ a file or its contents is a :class:`LipSyncError` saying what is wrong.
 
 from __future__ import annotations
 
+import json
 import os
 
 import bpy
@@ -182,6 +183,26 @@ def source(name: str) -> str:
 def load_preset(name: str):
     """The preset ``name`` (a built-in, one of the user's, or a .json file)."""
     return _load(source(name))
+
+
+def panel_preset(settings) -> presets.Preset:
+    """The preset as edited in the Lip Sync panel (the scene's ``settings``),
+    validated; the named preset itself when the panel holds no numbers."""
+    if not settings.preset_values:
+        return load_preset(settings.emotion)
+    flat = {item.path: item.value() for item in settings.preset_values}
+    flat.setdefault("name", settings.emotion)
+    where = f"preset {settings.emotion!r} (as edited)"
+    try:
+        doc = presets.from_flat(flat)
+        if settings.learned:
+            doc["learned"] = json.loads(settings.learned)
+        return presets.as_preset(doc, where)
+    except LipSyncError:
+        raise
+    except Exception:  # noqa: BLE001 - numbers the panel cannot put back together
+        raise LipSyncError(f"{where}: the panel's numbers do not fit the preset's fields; pick the preset "
+                           "from the menu again") from None
 
 
 def finder():

@@ -242,7 +242,7 @@ def test_learned_poses_on_dotted_shape_keys_survive_the_panel(scene, tmp_path):
     with open(os.path.join(_folder(), "dotty copy.json"), encoding="utf-8") as fh:
         saved = json.load(fh)
     assert saved["learned"]["targets"] == targets
-    assert scene.emotive_lipsync.preset().learned.targets == targets
+    assert _mod("userdata").panel_preset(scene.emotive_lipsync).learned.targets == targets
 
 
 def _keys(obj):
