@@ -29,7 +29,6 @@ import bpy
 
 from ..engine import batch, visemes
 from ..engine.errors import LipSyncError
-from ..engine.language import resolve_language
 from ..engine.language.text import read_text_file
 from . import compat, run, sources, userdata
 
@@ -165,10 +164,10 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
     else:
         text = sources.transcript(audio_path=clip.audio_path)[0]
     if line.emotion:
-        options = dataclasses.replace(options, emotion=userdata.load_preset(line.emotion))
+        options = dataclasses.replace(options, line=options.line.replace(emotion=userdata.load_preset(line.emotion)))
     language = line.language or (sources.strip_language(strip) if strip is not None else None)
     if language:
-        options = dataclasses.replace(options, language=language)
+        options = dataclasses.replace(options, line=options.line.replace(language=language))
     return run.generate(scene, obj, clip, text, options)
 
 
@@ -194,9 +193,8 @@ def execute(argv: list[str]) -> int:
         if args.audio and not args.mesh:
             raise UsageError("--audio needs --mesh: the face mesh to key")
         fixed = _fixed_text(args)
-        options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary)
-        if args.language:
-            options = dataclasses.replace(options, language=resolve_language(args.language).code)
+        options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary,
+                              args.language)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)
@@ -214,7 +212,7 @@ def execute(argv: list[str]) -> int:
 
     # Every line, from a manifest or from the options, goes through the batch
     # runner in this process: the models are loaded once for all of them.
-    batch.warm(options.dictionary)
+    batch.warm(options.line.dictionary)
     state = {"frame": args.frame if args.frame is not None else scene.frame_start}
 
     def key_line(line: batch.Line, _defaults) -> batch.Outcome:
@@ -229,7 +227,7 @@ def execute(argv: list[str]) -> int:
         print(summary.message())
         return batch.Outcome(line.number, line.label(), "ok")
 
-    for _ in batch.run_inline(jobs, batch.Defaults(), key_line):
+    for _ in batch.run_inline(jobs, options.line, key_line):
         pass
 
     if done and (args.save or args.output):

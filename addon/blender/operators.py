@@ -173,7 +173,8 @@ property, else the mesh its name starts with)"""
                     clip = sources.strip_clip(scene, strip)
                     text, _where = sources.strip_transcript(strip, clip.audio_path)
                     language = sources.strip_language(strip)
-                    line_options = dataclasses.replace(options, language=language) if language else options
+                    line_options = dataclasses.replace(options, line=options.line.replace(language=language)) \
+                        if language else options
                     done.append(run.generate(scene, obj, clip, text, line_options, progress))
                 except LipSyncError as exc:
                     problems.append(str(exc))

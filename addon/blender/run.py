@@ -7,6 +7,7 @@ out from the scene's Lip Sync settings); nothing here reads the UI.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from dataclasses import dataclass, field
@@ -15,37 +16,28 @@ import bpy
 
 from ..engine import conventions, expression, pipeline, visemes
 from ..engine.output import Result
-from ..engine.presets import Preset, viseme_set_for
 from ..engine import mapping as mapping_mod
-from ..engine.alignment import AlignSettings
-from ..engine.language import resolve_language
-from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
+from ..engine.settings import LineSettings
 from . import compat, emotion_markers, keying, rig, userdata
 from .sources import Clip, scene_fps
 
 
-@dataclass
+@dataclass(frozen=True)
 class Options:
-    """How to lip-sync, as plain values."""
+    """How to lip-sync: the line's settings, as the engine takes them, and
+    what only Blender has."""
 
-    emotion: Preset                      # the emotion preset
-    coarticulation: str = "dominance"
-    tolerance: float = 0.0               # 0: a key on every frame
-    dictionary: str | None = None
-    workers: int = 0
+    line: LineSettings                   # the emotion, coarticulation, frame rate, dictionary, language ...
+    tolerance: float = 0.0               # key reduction: 0 keys every frame
     whole_character: bool = True         # also key the character's other meshes with those shape keys
-    emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
-    language: str | None = None          # the transcript's language code (None: English)
-
-
-COARTICULATION = ("dominance", "rules")
 
 
 def options(scene, emotion: str | None = None, coarticulation: str | None = None, tolerance: float | None = None,
-            dictionary: str | None = None) -> Options:
+            dictionary: str | None = None, language: str | None = None) -> Options:
     """How to lip-sync: each value given (an operator's property, a
-    command-line argument), else the scene's Lip Sync settings.
+    command-line argument), else the scene's Lip Sync settings; the frame
+    rate is the scene's.
 
     ``emotion`` names a preset as :func:`.userdata.load_preset` reads it;
     without it the panel's preset, with its edited numbers, is used.
@@ -53,17 +45,15 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     Keys is on).  Paths may start with ``//`` (relative to the .blend)."""
     st = scene.emotive_lipsync
     preset = userdata.load_preset(emotion) if emotion else userdata.panel_preset(st)
-    coarticulation = coarticulation or st.coarticulation
-    if coarticulation not in COARTICULATION:
-        raise LipSyncError(f"{coarticulation!r} is not a coarticulation model: use {' or '.join(COARTICULATION)}")
     if tolerance is None:
         tolerance = st.tolerance if st.reduce_keys else 0.0
     elif not tolerance >= 0:
         raise LipSyncError(f"the key reduction tolerance must be 0 or more (0 keys every frame), got {tolerance}")
     dictionary = dictionary or st.dictionary
-    language = resolve_language(st.language).code if st.language.strip() else None
-    return Options(preset, coarticulation, tolerance, bpy.path.abspath(dictionary) if dictionary else None,
-                   whole_character=st.whole_character, emotion_fade=st.emotion_fade, language=language)
+    line = LineSettings.of(preset, coarticulation=coarticulation or st.coarticulation, fps=scene_fps(scene),
+                           dictionary=bpy.path.abspath(dictionary) if dictionary else None,
+                           language=language or st.language.strip() or None, emotion_fade=st.emotion_fade)
+    return Options(line, tolerance, whole_character=st.whole_character)
 
 
 @dataclass
@@ -299,10 +289,8 @@ class Plan:
     mesh: str
     clip: Clip
     text: str | None                 # None: the words are recognised from the audio
-    options: Options
-    fps: float
+    options: Options                 # the line's own: its viseme set is the mesh's (None: the learned preset's)
     mapping: dict[str, dict[str, float]]
-    viseme_set: str | None                 # the engine's viseme set (None: the learned preset's own)
     closure: conventions.Closure
     started: float = field(default_factory=time.perf_counter)
     also: list[str] = field(default_factory=list)   # companion meshes to key too
@@ -320,24 +308,28 @@ class Analysis:
 
 def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
     """Read a run's inputs from Blender (an empty mapping is filled in first,
-    see :func:`mesh_mapping`)."""
-    if options.emotion.learned is not None:
-        # A learned preset carries its own poses, in the training mesh's
-        # shape-key names.
-        names = set(check_mesh(obj))
-        poses = viseme_set_for(options.emotion).shape_keys
-        mp = {v: {k: w for k, w in mix.items() if k in names} for v, mix in poses.items()}
-        mp = {v: mix for v, mix in mp.items() if mix}
-        if not mp:
-            wanted = sorted({k for mix in poses.values() for k in mix})
-            raise LipSyncError(f"the learned preset {options.emotion.name!r} drives shape keys "
-                               f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
-                               "has none of them")
+    see :func:`mesh_mapping`).  The line's settings are ``options``' with
+    the mesh's viseme set."""
+    learned = options.line.emotion.learned is not None
+    if learned:
         set_source = None
         closure = conventions.Closure()
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
+    options = dataclasses.replace(options, line=options.line.replace(viseme_set=set_source))
+    if learned:
+        # A learned preset carries its own poses, in the training mesh's
+        # shape-key names.
+        names = set(check_mesh(obj))
+        poses = options.line.visemes.shape_keys
+        mp = {v: {k: w for k, w in mix.items() if k in names} for v, mix in poses.items()}
+        mp = {v: mix for v, mix in mp.items() if mix}
+        if not mp:
+            wanted = sorted({k for mix in poses.values() for k in mix})
+            raise LipSyncError(f"the learned preset {options.line.emotion.name!r} drives shape keys "
+                               f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
+                               "has none of them")
     if obj.type == "ARMATURE":   # the expression layer drives shape keys only
         face = conventions.ExpressionMatch({})
     else:
@@ -348,21 +340,16 @@ def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
     also = [o.name for o in companions(obj, driven)] if options.whole_character and obj.type == "MESH" else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
-    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
-                emotions=marks, find_preset=find, expression=face)
+    return Plan(scene.name, obj.name, clip, text, options, mp, closure, also=also, emotions=marks,
+                find_preset=find, expression=face)
 
 
 def analyze(plan: Plan, progress=None) -> Analysis:
     """The engine's part of a run.  It touches no Blender data, so it may run
     in a background thread."""
     t0 = time.perf_counter()
-    o = plan.options
-    result = pipeline.analyze(plan.clip.audio, plan.text, viseme_set=plan.viseme_set,
-                              emotion=o.emotion, coarticulation_model=o.coarticulation,
-                              fps=plan.fps, dictionary=o.dictionary,
-                              settings=AlignSettings(workers=o.workers), progress=progress,
-                              emotion_changes=plan.emotions, emotion_fade=o.emotion_fade,
-                              emotion_lookup=plan.find_preset, language=o.language)
+    result = pipeline.analyze(plan.clip.audio, plan.text, plan.options.line, progress=progress,
+                              emotion_changes=plan.emotions, emotion_lookup=plan.find_preset)
     return Analysis(result, time.perf_counter() - t0)
 
 

@@ -1,7 +1,7 @@
 """The lip-sync engine: plain Python and numpy, no Blender.
 
-    from addon.engine import analyze
-    result = analyze("line.wav", "Hello there!", emotion="happy", fps=24)
+    from addon.engine import LineSettings, analyze
+    result = analyze("line.wav", "Hello there!", LineSettings.of(emotion="happy", fps=24))
     result.curves      # (frames, visemes), weights in [0, 1]
 
 The engine is built in layers, each importing only from the layers below
@@ -19,5 +19,6 @@ or an upward import.
 from .errors import LipSyncError
 from .output import Result
 from .pipeline import analyze
+from .settings import LineSettings
 
-__all__ = ["analyze", "Result", "LipSyncError"]
+__all__ = ["analyze", "LineSettings", "Result", "LipSyncError"]

@@ -44,13 +44,14 @@ def pie(extension):
 
 def _key(scene, obj, pie, emotion, plan=None):
     """Key ``obj`` under ``emotion`` from frame 1 the way a run does; the Summary."""
-    run, presets = _mod("blender.run"), _mod("engine.presets")
+    run = _mod("blender.run")
     audio, al = pie
-    clip = _mod("blender.sources").Clip(audio, 1, "pie", PIE)
-    options = run.Options(presets.load(emotion))
-    plan = replace(plan, options=options) if plan is not None else run.plan(scene, obj, clip, PIE_TEXT, options)
-    result = _mod("engine.pipeline").analyze(audio, alignment=al, emotion=options.emotion, fps=FPS,
-                                              viseme_set=plan.viseme_set)
+    if plan is None:
+        clip = _mod("blender.sources").Clip(audio, 1, "pie", PIE)
+        plan = run.plan(scene, obj, clip, PIE_TEXT, run.options(scene, emotion=emotion))
+    else:
+        plan = replace(plan, options=replace(plan.options, line=plan.options.line.replace(emotion=emotion)))
+    result = _mod("engine.pipeline").analyze(audio, settings=plan.options.line, alignment=al)
     return plan, run.key(obj, plan, run.Analysis(result, 0.0))
 
 
