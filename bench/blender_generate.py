@@ -84,13 +84,14 @@ def main():
           f"(target <= 0.1)")
 
     clip = sources.strip_clip(scene, sources.strip_by_name(scene, "line"))
+    line = sources.LineInputs(rig, clip, text)
     opts = dataclasses.replace(run.options(scene), tolerance=0.0)
-    again = run.generate(scene, rig, clip, text, opts)
+    again = run.generate(scene, line, opts)
     keying.clear(rig)
-    fresh = run.generate(scene, rig, clip, text, opts)
+    fresh = run.generate(scene, line, opts)
     print(f"  engine inside it: {fresh.timings['engine']:.2f} s")
     keying.clear(rig)
-    reduced = run.generate(scene, rig, clip, text, dataclasses.replace(opts, tolerance=0.02))
+    reduced = run.generate(scene, line, dataclasses.replace(opts, tolerance=0.02))
     print(f"  keyframing {fresh.keys} keys on {fresh.shape_keys} shape keys (target < 100 ms): "
           f"{1000 * fresh.timings['keying']:.1f} ms on new F-curves, "
           f"{1000 * again.timings['keying']:.1f} ms replacing a previous run")

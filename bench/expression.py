@@ -91,7 +91,7 @@ def run_line(name, path, text, modules) -> bool:
         for old in [o for o in bpy.data.objects if o.name.startswith("Held")]:
             bpy.data.objects.remove(old)
         obj = human.build("Held", "arkit")
-        plan = run.plan(scene, obj, clip, text, run.options(scene, emotion=emotion))
+        plan = run.plan(scene, sources.LineInputs(obj, clip, text), run.options(scene, emotion=emotion))
         result = pipeline.analyze(audio, settings=plan.options.line, alignment=al)
         run.key(obj, plan, run.Analysis(result, 0.0))
         mapping = plan.expression.mapping

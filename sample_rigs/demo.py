@@ -245,7 +245,7 @@ def emotions_sheet(scene, heads, label, audio, alignment, transcript, path) -> f
     tiles = []
     try:
         for emotion in EMOTIONS:
-            plan = run.plan(scene, face, clip, transcript, run.options(scene, emotion=emotion))
+            plan = run.plan(scene, sources.LineInputs(face, clip, transcript), run.options(scene, emotion=emotion))
             result = pipeline.analyze(audio, settings=plan.options.line, alignment=alignment)
             run.key(face, plan, run.Analysis(result, 0.0))
             units = plan.options.line.emotion.expression

@@ -20,7 +20,7 @@ from ..engine import mapping as mapping_mod
 from ..engine.errors import LipSyncError
 from ..engine.settings import LineSettings
 from . import compat, emotion_markers, keying, rig, userdata
-from .sources import Clip, scene_fps
+from .sources import Clip, LineInputs, scene_fps
 
 
 @dataclass(frozen=True)
@@ -306,10 +306,11 @@ class Analysis:
     seconds: float
 
 
-def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
+def plan(scene, line: LineInputs, options: Options) -> Plan:
     """Read a run's inputs from Blender (an empty mapping is filled in first,
     see :func:`mesh_mapping`).  The line's settings are ``options``' with
-    the mesh's viseme set."""
+    the mesh's viseme set and the line's own language, if it has one."""
+    obj, clip = line.target, line.clip
     learned = options.line.emotion.learned is not None
     if learned:
         set_source = None
@@ -317,7 +318,8 @@ def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
-    options = dataclasses.replace(options, line=options.line.replace(viseme_set=set_source))
+    own = {"language": line.language} if line.language else {}
+    options = dataclasses.replace(options, line=options.line.replace(viseme_set=set_source, **own))
     if learned:
         # A learned preset carries its own poses, in the training mesh's
         # shape-key names.
@@ -340,7 +342,7 @@ def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
     also = [o.name for o in companions(obj, driven)] if options.whole_character and obj.type == "MESH" else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
-    return Plan(scene.name, obj.name, clip, text, options, mp, closure, also=also, emotions=marks,
+    return Plan(scene.name, obj.name, clip, line.text, options, mp, closure, also=also, emotions=marks,
                 find_preset=find, expression=face)
 
 
@@ -463,7 +465,7 @@ def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames:
             "kept": kept}
 
 
-def generate(scene, obj, clip: Clip, text: str | None, options: Options, progress=None) -> Summary:
-    """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
-    p = plan(scene, obj, clip, text, options)
-    return key(obj, p, analyze(p, progress))
+def generate(scene, line: LineInputs, options: Options, progress=None) -> Summary:
+    """Analyse the line's clip and key its target's mapped shape keys from the clip's frame."""
+    p = plan(scene, line, options)
+    return key(line.target, p, analyze(p, progress))

@@ -44,11 +44,11 @@ def pie(extension):
 
 def _key(scene, obj, pie, emotion, plan=None):
     """Key ``obj`` under ``emotion`` from frame 1 the way a run does; the Summary."""
-    run = _mod("blender.run")
+    run, sources = _mod("blender.run"), _mod("blender.sources")
     audio, al = pie
     if plan is None:
-        clip = _mod("blender.sources").Clip(audio, 1, "pie", PIE)
-        plan = run.plan(scene, obj, clip, PIE_TEXT, run.options(scene, emotion=emotion))
+        line = sources.LineInputs(obj, sources.Clip(audio, 1, "pie", PIE), PIE_TEXT)
+        plan = run.plan(scene, line, run.options(scene, emotion=emotion))
     else:
         plan = replace(plan, options=replace(plan.options, line=plan.options.line.replace(emotion=emotion)))
     result = _mod("engine.pipeline").analyze(audio, settings=plan.options.line, alignment=al)
