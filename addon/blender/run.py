@@ -14,9 +14,8 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from ..engine import conventions, expression, pipeline, visemes
+from ..engine import conventions, keys, pipeline, visemes
 from ..engine.output import Result
-from ..engine import mapping as mapping_mod
 from ..engine.errors import LipSyncError
 from ..engine.settings import LineSettings
 from . import compat, emotion_markers, keying, rig, userdata
@@ -359,39 +358,26 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     """Write an analysed run's keys on ``obj``'s mapped shape keys (main thread)."""
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
-    names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
     if obj.type == "ARMATURE":
-        return _key_rig(obj, plan, analysis, names, values, t0)
-    speech = list(names)
-    face = _expression_keys(obj, plan, result, names, len(values))
-    ex_values = face["values"]
-    phones = [(p.phone, p.start, p.end) for p in result.alignment.phones]
-    lower = {k for u, mix in plan.expression.mapping.items() if expression.lower_face(u) for k in mix}
-    if plan.closure.relax == "others":
-        # The basis shows closed lips: the mouth's expression keys open on /p b m/ only as far as it does.
-        ex_values = expression.give_way(face["names"], ex_values, lower, result.times, phones)
-    else:
-        # The closing pose presses the lips only as far as the mouth's expression does not hold them together.
-        pressing = set(plan.mapping.get(plan.closure.viseme, {})) - set(plan.closure.relative) - \
-            plan.closure.relaxed_keys(plan.mapping)
-        values = expression.seal(names, values, pressing, face["names"], ex_values, lower, result.times, phones)
-    names, values = expression.combine(names, values, face["names"], ex_values)
-    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
+        return _key_rig(obj, plan, analysis, t0)
+    face = plan.expression.mapping
+    animated = keying.user_animated(obj, sorted({k for mix in face.values() for k in mix}))
+    line = keys.mesh_keys(result, plan.mapping, plan.closure, face, animated)
+    names, values = line.names, line.table()
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
                            "nothing was keyed")
-    last = clip.first_frame + len(values) - 1
-    stale = sorted({k for mix in plan.expression.mapping.values() for k in mix} - set(names) - set(face["kept"]))
-    keying.forget(obj, stale, clip.first_frame, last)
+    keying.forget(obj, line.dropped, clip.first_frame, clip.first_frame + line.frames - 1)
     counts = keying.write(obj, names, values, clip.first_frame, plan.options.tolerance, clip.label)
     also = []
+    only_face = set(line.driven_only_by(keys.EXPRESSION))
     for name in plan.also:
         other = bpy.data.objects.get(name)
         have = set(check_mesh(other)) if other is not None and other.type == "MESH" and \
             other.data.shape_keys is not None else set()
         if have:   # the companion's own animation on an expression key wins there too
-            have -= set(keying.user_animated(other, sorted(have & set(face["names"]) - set(speech))))
+            have -= set(keying.user_animated(other, sorted(have & only_face)))
         cols = [j for j, k in enumerate(names) if k in have]
         if cols:   # a companion deleted or changed meanwhile is simply left alone
             keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
@@ -407,8 +393,8 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
                    last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
-                   warnings=list(result.warnings), expression=face["units"], expression_keys=face["names"],
-                   no_key=face["no_key"], kept=face["kept"], **_heard(words, result))
+                   warnings=list(result.warnings), expression=line.units, expression_keys=line.expression_keys,
+                   no_key=line.no_key, kept=line.kept, **_heard(words, result))
 
 
 def _heard(words, result: Result) -> dict:
@@ -420,49 +406,24 @@ def _heard(words, result: Result) -> dict:
             "recognized": bool(words) and all(w.recognized for w in words)}
 
 
-def closing_names(vset: visemes.VisemeSet, mapping: dict[str, dict[str, float]]) -> list[str]:
-    """The names the visemes of /p b m/ drive (the poses that shut the lips)."""
-    out = []
-    for phone in ("P", "B", "M"):
-        for v in vset.phonemes.get(phone, []):
-            out += [k for k in mapping.get(v, {}) if k not in out]
-    return out
-
-
-def _key_rig(obj, plan: Plan, analysis: Analysis, names: list[str], values, t0: float) -> Summary:
+def _key_rig(obj, plan: Plan, analysis: Analysis, t0: float) -> Summary:
     """:func:`key` on an armature: the mapped poses blended onto its bones,
     its mapped properties keyed as shape keys are."""
     result, clip = analysis.result, plan.clip
-    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
-    gone = sorted(set(names) - set(check_mesh(obj)))
+    line = keys.rig_keys(result, plan.mapping, plan.closure)
+    gone = sorted(set(line.names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"armature {obj.name!r} no longer has pose asset or property "
                            f"{', '.join(map(repr, gone))}; nothing was keyed")
-    paths, curves = rig.channels(obj, names, values, closing_names(result.viseme_set, plan.mapping),
-                                 result.closure)
+    paths, curves = rig.channels(obj, line.names, line.table(), line.closing, line.closure)
     counts = keying.write_rig(obj, paths, curves, clip.first_frame, plan.options.tolerance, clip.label)
     t1 = time.perf_counter()
     words = result.alignment.words
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
-                   last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
+                   last_frame=counts["last_frame"], shape_keys=len(line.channels), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0},
                    warnings=list(result.warnings),
                    driven=f"poses and properties ({len(paths)} bone and property channels)", **_heard(words, result))
-
-
-def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames: int) -> dict:
-    """The expression's shape-key curves on ``obj``: its units on the keys the
-    mesh has for them, without the keys the user animates (the user's
-    animation wins; keys speech also drives are speech's and keyed as
-    before).  Also which units had no key and which keys were left."""
-    mapping = plan.expression.mapping
-    units = [u for u in result.expression if u in mapping]
-    no_key = [u for u in result.expression if u not in mapping]
-    names, values = expression.key_curves({u: result.expression[u] for u in units}, mapping, frames)
-    kept = keying.user_animated(obj, [k for k in names if k not in speech])
-    cols = [j for j, k in enumerate(names) if k not in kept]
-    return {"names": [names[j] for j in cols], "values": values[:, cols], "units": units, "no_key": no_key,
-            "kept": kept}
 
 
 def generate(scene, line: LineInputs, options: Options, progress=None) -> Summary:

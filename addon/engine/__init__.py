@@ -9,8 +9,9 @@ it: the basics (errors, data files, frame rates), then language and audio
 decoding, then the data a studio extends and the voice's measures
 (visemes, conventions, presets, prosody, arousal) with forced alignment,
 then the animation (coarticulation, emotion over the line, the expression
-layer, rendering, a bone rig's poses blended), then the whole job (:mod:`.pipeline`, its
-:mod:`.output`) and :mod:`.learning`, and on top the programs
+layer, a line's settings, rendering, a bone rig's poses blended), then the
+whole job (:mod:`.pipeline`, its :mod:`.output`, the :mod:`.keys` a target
+gets from it) and :mod:`.learning`, and on top the programs
 (:mod:`.batch`, :mod:`.cli`).  Which module sits in which layer is written
 down once, in ``tests/test_structure.py``, which fails on an import cycle
 or an upward import.
