@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 
 import bpy
 
@@ -152,13 +153,19 @@ def _source(name: str, where: str, blend_folder: str) -> str:
         name = os.path.join(blend_folder, name[2:])
     try:
         path = os.path.abspath(name)
-        folder_given, exists = os.path.isdir(path), os.path.isfile(path)
-    except (OSError, ValueError):
+    except ValueError:
         raise LipSyncError(f"{_short(name)!r} is not a usable file path") from None
-    if folder_given:
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        raise LipSyncError(f"the preset file {path} does not exist") from None
+    except (OSError, ValueError) as exc:   # no permission to look, a name too long ...
+        raise LipSyncError(f"cannot read the preset file {path}: {getattr(exc, 'strerror', None) or 'unreadable'}"
+                           ) from None
+    if stat.S_ISDIR(mode):
         raise LipSyncError(f"{path} is a folder, not a preset file: give a .json file")
-    if not exists:
-        raise LipSyncError(f"the preset file {path} does not exist")
+    if not stat.S_ISREG(mode):
+        raise LipSyncError(f"{path} is not a file but a device, a pipe or a socket: give a .json preset file")
     return path
 
 

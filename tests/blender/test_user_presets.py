@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
 import re
 from importlib import import_module
 
@@ -126,6 +127,39 @@ def test_loading_a_bad_preset_says_what_is_wrong_and_changes_nothing(scene, file
     assert bpy.ops.emotive_lipsync.preset_load(name="sad") == {"FINISHED"}
     msg = _refused(scene, "preset_load", name=name.format(**files))
     assert re.search(problem, msg), msg
+    assert scene.emotive_lipsync.emotion == "sad"
+
+
+def test_a_missing_or_unreadable_preset_file_is_named_and_nothing_changes(scene, tmp_path, monkeypatch):
+    assert bpy.ops.emotive_lipsync.preset_load(name="sad") == {"FINISHED"}
+    missing = tmp_path / "gone" / "mood.json"
+    assert _refused(scene, "preset_load", name=str(missing)) == f"the preset file {missing} does not exist"
+    # Files this user may not read (simulated: the tests may run as root, who reads everything).
+    locked, hidden = tmp_path / "locked.json", tmp_path / "private" / "mood.json"
+    locked.write_text('{"gain": 0.5}', encoding="utf-8")
+    read_text, stat = pathlib.Path.read_text, os.stat
+
+    def refuse_read(path, *args, **kwargs):
+        if path == locked:
+            raise PermissionError(13, "Permission denied", str(path))
+        return read_text(path, *args, **kwargs)
+
+    def refuse_look(path, *args, **kwargs):
+        if os.fspath(path) == str(hidden):
+            raise PermissionError(13, "Permission denied", os.fspath(path))
+        return stat(path, *args, **kwargs)
+
+    monkeypatch.setattr(pathlib.Path, "read_text", refuse_read)
+    monkeypatch.setattr(os, "stat", refuse_look)
+    msg = _refused(scene, "preset_load", name=str(locked))
+    assert str(locked) in msg and "cannot be read: Permission denied" in msg, msg
+    msg = _refused(scene, "preset_load", name=str(hidden))
+    assert msg == f"cannot read the preset file {hidden}: Permission denied", msg
+    # A name that is no regular file.
+    pipe = tmp_path / "pipe.json"
+    os.mkfifo(pipe)
+    msg = _refused(scene, "preset_load", name=str(pipe))
+    assert msg == f"{pipe} is not a file but a device, a pipe or a socket: give a .json preset file", msg
     assert scene.emotive_lipsync.emotion == "sad"
 
 
