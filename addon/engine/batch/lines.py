@@ -5,8 +5,8 @@ the run's settings with the line's own), what became of it
 
 from __future__ import annotations
 
-import os
 import dataclasses
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 

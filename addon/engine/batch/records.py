@@ -100,6 +100,7 @@ class Digests:
 
     def __init__(self):
         self._seen: dict[tuple, str] = {}
+        self._given: list[tuple[object, str]] = []    # presets given read, with their digests
 
     def _once(self, key: tuple, make) -> str:
         if key not in self._seen:
@@ -111,6 +112,16 @@ class Digests:
         from .. import presets
 
         return self._once(("preset", folder, name), lambda: _digest(presets.finder(folder)(name)))
+
+    def given_preset(self, preset) -> str:
+        """The digest of a preset given already read (the run's settings'
+        emotion), taken once for that preset."""
+        for known, digest in self._given:
+            if known is preset:
+                return digest
+        digest = _digest(preset)
+        self._given.append((preset, digest))
+        return digest
 
     def viseme_set(self, name: str) -> str:
         from .. import visemes
@@ -142,7 +153,7 @@ def produced_by(line: Line, defaults: LineSettings, before: dict | None = None,
                 "coarticulation": defaults.coarticulation, "emotion_fade": float(defaults.emotion_fade)}
     if (line.language or defaults.language or "en") != "en":     # English lines keep the records they had
         settings["language"] = None if line.language else defaults.language
-    files = {"preset": digests.preset(line.emotion) if line.emotion else _digest(defaults.emotion),
+    files = {"preset": digests.preset(line.emotion) if line.emotion else digests.given_preset(defaults.emotion),
              "viseme_set": digests.viseme_set(line.viseme_set or defaults.viseme_set or "default")}
     text = line_text(line)
     if text:
