@@ -32,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from addon.engine import batch
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures"
@@ -91,7 +92,7 @@ def main() -> None:
         digests = batch.Digests()
         t0 = time.perf_counter()
         for ln in batch.read_manifest(manifest):
-            batch.write_outputs(ln, result, batch.produced_by(ln, batch.Defaults(), digests=digests))
+            batch.write_outputs(ln, result, batch.produced_by(ln, LineSettings.of(), digests=digests))
         print(f"{args.lines} lines of {args.seconds:g} s ({size / 2**20:.0f} MiB of audio); records made and "
               f"outputs written in {time.perf_counter() - t0:.2f} s")
 

@@ -15,6 +15,7 @@ else the shipped sample repeated to 100 s.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import tempfile
@@ -83,15 +84,14 @@ def main():
           f"(target <= 0.1)")
 
     clip = sources.strip_clip(scene, sources.strip_by_name(scene, "line"))
-    opts = run.Options(scene.emotive_lipsync.preset())
-    again = run.generate(scene, rig, clip, text, opts)
+    line = sources.LineInputs(rig, clip, text)
+    opts = dataclasses.replace(run.options(scene), tolerance=0.0)
+    again = run.generate(scene, line, opts)
     keying.clear(rig)
-    fresh = run.generate(scene, rig, clip, text, opts)
+    fresh = run.generate(scene, line, opts)
     print(f"  engine inside it: {fresh.timings['engine']:.2f} s")
-    opts.tolerance = 0.02
     keying.clear(rig)
-    reduced = run.generate(scene, rig, clip, text, opts)
-    opts.tolerance = 0.0
+    reduced = run.generate(scene, line, dataclasses.replace(opts, tolerance=0.02))
     print(f"  keyframing {fresh.keys} keys on {fresh.shape_keys} shape keys (target < 100 ms): "
           f"{1000 * fresh.timings['keying']:.1f} ms on new F-curves, "
           f"{1000 * again.timings['keying']:.1f} ms replacing a previous run")
@@ -101,8 +101,9 @@ def main():
     # The same keys written one by one, as most add-ons do.
     keying.clear(rig)
     from addon.engine import mapping, pipeline
+    from addon.engine.settings import LineSettings
 
-    result = pipeline.analyze(clip.audio, text, viseme_set="oculus", fps=30)
+    result = pipeline.analyze(clip.audio, text, LineSettings.of(viseme_set="oculus", fps=30))
     names, values = mapping.shape_key_curves(result.curves, result.viseme_set.visemes,
                                              rig.emotive_lipsync.mapping_dict())
     kbs = rig.data.shape_keys.key_blocks

@@ -91,10 +91,8 @@ def run_line(name, path, text, modules) -> bool:
         for old in [o for o in bpy.data.objects if o.name.startswith("Held")]:
             bpy.data.objects.remove(old)
         obj = human.build("Held", "arkit")
-        options = run.Options(presets.load(emotion))
-        plan = run.plan(scene, obj, clip, text, options)
-        result = pipeline.analyze(audio, alignment=al, viseme_set=plan.viseme_set, emotion=options.emotion,
-                                  fps=plan.fps)
+        plan = run.plan(scene, sources.LineInputs(obj, clip, text), run.options(scene, emotion=emotion))
+        result = pipeline.analyze(audio, settings=plan.options.line, alignment=al)
         run.key(obj, plan, run.Analysis(result, 0.0))
         mapping = plan.expression.mapping
         keys = sorted({k for mix in mapping.values() for k in mix})
@@ -109,7 +107,7 @@ def run_line(name, path, text, modules) -> bool:
             units = f"upper face ({len(upper)} keys): max {peak:.3f}, std {spread:.3f}"
             ok &= peak == 0.0
         else:
-            deltas = {u: means[u] - neutral_means[u] for u in sorted(options.emotion.expression,
+            deltas = {u: means[u] - neutral_means[u] for u in sorted(plan.options.line.emotion.expression,
                                                                      key=lambda u: int(u[2:]))}
             units = "  ".join(f"{u} {d:+.2f}" for u, d in deltas.items())
             low = min(deltas.values())

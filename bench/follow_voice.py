@@ -21,6 +21,7 @@ from common import DATA, ROOT
 from addon.engine import presets
 from addon.engine.language.phonemes import MANNER
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 
 sys.path.insert(0, str(ROOT / "tests"))
 from voice_synth import voice
@@ -50,7 +51,7 @@ def main() -> None:
     print(f"{'line':34} arousal  " + "  ".join(f"{'amount ' + format(a, 'g'):>15}" for a in AMOUNTS))
     for label, effort in (("synthetic, full effort", 1.0), ("synthetic, no effort", 0.0)):
         snd, al = voice(effort)
-        row(label, lambda p, snd=snd, al=al: analyze(snd, alignment=al, emotion=p))
+        row(label, lambda p, snd=snd, al=al: analyze(snd, settings=LineSettings.of(emotion=p), alignment=al))
     vq = Path(DATA) / "voice_quality"
     if not vq.is_dir():
         print(f"skipped the recorded lines: {vq} is not here")
@@ -58,7 +59,8 @@ def main() -> None:
     text = "montreal forced aligner"
     for name in ("mfa_falsetto", "mfa_breathy"):
         al = analyze(vq / f"{name}.flac", text).alignment     # align once, reuse for every amount
-        row(f"recorded, {name}", lambda p, name=name, al=al: analyze(vq / f"{name}.flac", alignment=al, emotion=p))
+        row(f"recorded, {name}", lambda p, name=name, al=al: analyze(vq / f"{name}.flac",
+                                                                     settings=LineSettings.of(emotion=p), alignment=al))
 
 
 if __name__ == "__main__":

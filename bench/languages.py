@@ -35,7 +35,7 @@ import numpy as np
 
 from common import need_data
 
-from addon.engine import analyze
+from addon.engine import LineSettings, analyze
 from addon.engine import audio as audio_mod
 from addon.engine.alignment.verify import edit_path
 from addon.engine.errors import LipSyncError
@@ -124,7 +124,7 @@ def main() -> None:
             snd = audio_mod.load(wav)
             t0 = time.perf_counter()
             try:
-                result = analyze(snd, f"/{word}/", fps=100)
+                result = analyze(snd, f"/{word}/", LineSettings.of(fps=100))
             except LipSyncError as exc:
                 s["failed"] += 1
                 s["work"] += time.perf_counter() - t0

@@ -22,6 +22,7 @@ from addon.engine import learning, pipeline, presets, visemes
 from addon.engine.learning import capture
 from addon.engine.alignment import align_audio
 from addon.engine.alignment import Alignment
+from addon.engine.settings import LineSettings
 
 CHANNELS = list(capture.ARKIT)
 
@@ -84,7 +85,7 @@ def main():
         best = float("inf")
         for _ in range(5):
             t0 = time.perf_counter()
-            pipeline.analyze(snd, text, alignment=al, emotion=emotion, viseme_set=vset)
+            pipeline.analyze(snd, text, LineSettings.of(emotion=emotion, viseme_set=vset), alignment=al)
             best = min(best, time.perf_counter() - t0)
         print(f"synthesis with the {label} preset ({snd.duration:.1f} s line, alignment given): {1000 * best:.1f} ms")
     return 0

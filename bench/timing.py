@@ -68,6 +68,7 @@ from addon.engine import pipeline
 from addon.engine.importers import read_textgrid
 from addon.engine.language.phonemes import is_vowel
 from addon.engine.language.text import normalize
+from addon.engine.settings import LineSettings
 
 STEP = 0.01
 MIN_PAUSE = 0.3
@@ -186,7 +187,7 @@ def main(argv=None) -> int:
         snd = audio_mod.load(audio)
         t = grid(snd.duration)
         t0 = time.perf_counter()
-        res = pipeline.analyze(snd, text, fps=100)
+        res = pipeline.analyze(snd, text, LineSettings.of(fps=100))
         dt = time.perf_counter() - t0
         al = res.alignment
         pairs = match([p.phone for p in al.phones], [p.phone for p in ref.phones])

@@ -109,8 +109,9 @@ def event_score(al, ref, snd) -> list[bool]:
     0.3 s or more between hand phones (the mouth at rest on at least half of
     it); rendered at 100 fps from the alignment, neutral preset."""
     from addon.engine.pipeline import analyze
+    from addon.engine.settings import LineSettings
 
-    r = analyze(snd, alignment=al, fps=100)
+    r = analyze(snd, settings=LineSettings.of(fps=100), alignment=al)
     active = r.curves.max(axis=1) >= 0.2
 
     def frames(a, b):

@@ -245,13 +245,10 @@ def emotions_sheet(scene, heads, label, audio, alignment, transcript, path) -> f
     tiles = []
     try:
         for emotion in EMOTIONS:
-            options = run.options(scene, emotion=emotion)
-            plan = run.plan(scene, face, clip, transcript, options)
-            result = pipeline.analyze(audio, alignment=alignment, viseme_set=plan.viseme_set,
-                                      emotion=options.emotion, coarticulation_model=options.coarticulation,
-                                      fps=plan.fps, language=options.language)
+            plan = run.plan(scene, sources.LineInputs(face, clip, transcript), run.options(scene, emotion=emotion))
+            result = pipeline.analyze(audio, settings=plan.options.line, alignment=alignment)
             run.key(face, plan, run.Analysis(result, 0.0))
-            units = options.emotion.expression
+            units = plan.options.line.emotion.expression
             label.data.body = emotion
             caption.data.body = " + ".join(sorted(units, key=lambda u: int(u[2:]))) or "no expression"
             scene.frame_set(frame)

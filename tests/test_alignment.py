@@ -11,6 +11,7 @@ from addon.engine.alignment import AlignSettings
 from addon.engine.errors import AlignmentError, AudioError, LipSyncError, TranscriptError
 from addon.engine.alignment import align_file
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 
 
 def test_every_word_aligned_in_order():
@@ -53,7 +54,7 @@ def test_sample_with_every_format(tmp_path):
                                                    np.arange(len(snd.samples)), snd.samples), 44100)
     write_wav(tmp_path / "stereo.wav", stereo, 16000, channels=2)
     for f in ("stereo44k.wav", "stereo.wav"):
-        r = analyze(tmp_path / f, text, fps=24)
+        r = analyze(tmp_path / f, text, LineSettings.of(fps=24))
         assert len(r.alignment.words) == 16 and r.alignment.n_estimated == 0
 
 
@@ -128,7 +129,7 @@ def test_cli_errors_are_one_line(tmp_path):
 def test_imported_alignment_skips_the_aligner(tmp_path):
     tsv = tmp_path / "cues.tsv"
     tsv.write_text("0.00\tX\n0.30\tA\n0.45\tD\n0.80\tX\n")
-    r = analyze(FIXTURES / "bob_map.wav", None, alignment=tsv, viseme_set="rhubarb", fps=100)
+    r = analyze(FIXTURES / "bob_map.wav", None, LineSettings.of(viseme_set="rhubarb", fps=100), alignment=tsv)
     a = r.viseme_set.index("A")
     k = int(0.37 * 100)
     assert r.curves[k, a] > 0.85
@@ -136,7 +137,7 @@ def test_imported_alignment_skips_the_aligner(tmp_path):
 
 def test_bad_fps():
     with pytest.raises(LipSyncError, match="frame rate"):
-        analyze(FIXTURES / "bob_map.wav", "Bob bought a map", fps="fast")
+        analyze(FIXTURES / "bob_map.wav", "Bob bought a map", LineSettings.of(fps="fast"))
 
 
 def _two_lines(tmp_path):

@@ -8,6 +8,7 @@ import pytest
 from addon.engine import arousal, cli, presets
 from addon.engine.errors import LipSyncError
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 from conftest import write_wav
 from voice_synth import voice
 
@@ -111,16 +112,16 @@ def vowel_weights(result):
 
 def test_follow_voice_zero_is_todays_weights(lines, monkeypatch):
     for snd, al in lines.values():
-        zero = analyze(snd, alignment=al, emotion=follow(0.0))
+        zero = analyze(snd, settings=LineSettings.of(emotion=follow(0.0)), alignment=al)
         with monkeypatch.context() as m:   # equations 1-2 alone, no arousal estimated at all
             m.setattr(arousal, "estimate", lambda *a, **k: None)
-            today = analyze(snd, alignment=al, emotion=follow(0.0))
+            today = analyze(snd, settings=LineSettings.of(emotion=follow(0.0)), alignment=al)
         assert np.array_equal(today.weights, zero.weights)
         assert np.array_equal(today.curves, zero.curves)
 
 
 def test_follow_voice_opens_a_loud_line_wider_than_a_quiet_one(lines):
-    r = {(name, amount): analyze(snd, alignment=al, emotion=follow(amount))
+    r = {(name, amount): analyze(snd, settings=LineSettings.of(emotion=follow(amount)), alignment=al)
          for name, (snd, al) in lines.items() for amount in (0.0, 1.0)}
     # Equations 1-2 alone weigh each line against itself: the two lines get similar weights.
     assert vowel_weights(r["loud", 0.0]).mean() == pytest.approx(vowel_weights(r["quiet", 0.0]).mean(), abs=0.1)

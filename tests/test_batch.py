@@ -15,6 +15,7 @@ import pytest
 
 from addon.engine import batch
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures"
@@ -99,7 +100,7 @@ def test_batch_writes_what_analyze_writes_and_reports_failures(lines_dir, tmp_pa
     assert [x["status"] for x in rep["lines"]] == ["ok", "failed", "ok", "failed", "failed"]
 
     # Same content as the engine's own result for that line.
-    ref = analyze(lines_dir / "bob_map.wav", (lines_dir / "bob_map.txt").read_text(), emotion="angry")
+    ref = analyze(lines_dir / "bob_map.wav", (lines_dir / "bob_map.txt").read_text(), LineSettings.of(emotion="angry"))
     got = json.loads((lines_dir / "bob_map.json").read_text())
     assert got.pop("produced_by")["row"] == {"audio": "bob_map.wav", "transcript": "bob_map.txt", "emotion": "angry"}
     assert got == json.loads(json.dumps(ref.to_dict(), separators=(",", ":")))

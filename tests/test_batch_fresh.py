@@ -18,6 +18,7 @@ import pytest
 
 from addon.engine import batch
 from addon.engine.batch import records
+from addon.engine.settings import LineSettings
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures"
@@ -90,7 +91,7 @@ def test_each_option_counts(lines_dir, option, value):
     m = lines_dir / "m.csv"
     m.write_text("audio,transcript\nbob_map.wav,bob_map.txt\n")
     assert _status(_run(m)) == ["ok"]
-    changed = batch.Defaults(**{option: value})
+    changed = LineSettings.of(**{option: value})
     again = _run(m, defaults=changed)
     assert _status(again) == ["ok"] and again.outcomes[0].reason == "settings changed"
     assert _status(_run(m, defaults=changed)) == ["skipped"]
@@ -124,7 +125,7 @@ def test_edited_preset_viseme_set_and_dictionary_files_redo_the_line(lines_dir):
     dic.write_text("BOB  B AA1 B\n")
     m = lines_dir / "m.csv"
     m.write_text("audio,transcript,emotion,viseme_set\nbob_map.wav,bob_map.txt,presets/grumpy.json,mine.json\n")
-    options = batch.Defaults(dictionary=str(dic))
+    options = LineSettings.of(dictionary=str(dic))
     assert _status(_run(m, defaults=options)) == ["ok"]
     assert _status(_run(m, defaults=options)) == ["skipped"]
 
@@ -252,7 +253,7 @@ def test_csv_outputs_carry_their_record_beside_them(lines_dir):
     assert side.is_file() and not (lines_dir / "bob_map.json").exists()
     assert csv_out.read_text().splitlines()[0].startswith("frame,time,")
     assert _status(_run(m, formats=("csv",))) == ["skipped"]
-    sad = batch.Defaults(emotion="sad")
+    sad = LineSettings.of(emotion="sad")
     assert _status(_run(m, formats=("csv",), defaults=sad)) == ["ok"]
     assert _doc(side)["settings"]["emotion"] == "sad"
     # JSON and CSV, then JSON alone with other settings: the CSV left behind is stale and is redone.

@@ -9,6 +9,7 @@ from addon.engine import cli, emotion_track, pipeline, presets
 from addon.engine.alignment import AlignedWord, Alignment
 from addon.engine.errors import LipSyncError, TranscriptError
 from addon.engine.language.text import normalize
+from addon.engine.settings import LineSettings
 from voice_synth import voice
 
 
@@ -63,9 +64,10 @@ def line():
 def test_weights_follow_each_preset_on_each_side_without_a_jump(line):
     snd, al = line
     change = al.words[4].start
-    neutral = pipeline.analyze(snd, alignment=al, emotion="neutral")
-    angry = pipeline.analyze(snd, alignment=al, emotion="angry")
-    mixed = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(change, "angry")])
+    neutral = pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral"), alignment=al)
+    angry = pipeline.analyze(snd, settings=LineSettings.of(emotion="angry"), alignment=al)
+    mixed = pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral"), alignment=al,
+                             emotion_changes=[(change, "angry")])
     t = mixed.times
     before, after = t < change - 0.3, t >= change
     assert np.array_equal(mixed.curves[before], neutral.curves[before])
@@ -82,15 +84,17 @@ def test_weights_follow_each_preset_on_each_side_without_a_jump(line):
     assert (np.abs(np.diff(mixed.curves, axis=0)) <= own + step * np.maximum(gap[1:], gap[:-1]) + 1e-9).all()
     # A preset far from neutral: a hard cut jumps, the cross-fade does not.
     small = {"name": "small", "gain": 0.4}
-    low = pipeline.analyze(snd, alignment=al, emotion=small)
+    low = pipeline.analyze(snd, settings=LineSettings.of(emotion=small), alignment=al)
     own = np.maximum(np.abs(np.diff(neutral.curves, axis=0)), np.abs(np.diff(low.curves, axis=0)))
     gap = np.abs(neutral.curves - low.curves)
     vowel = al.phones[13]                  # word 4's vowel: a change (a marker) mid-vowel
     mid = (vowel.start + vowel.end) / 2
     k = np.searchsorted(t, mid)
-    cut = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(mid, small)], emotion_fade=0.0)
+    cut = pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral", emotion_fade=0.0), alignment=al,
+                           emotion_changes=[(mid, small)])
     assert (np.abs(cut.curves[k] - cut.curves[k - 1]) > own[k - 1] + 0.1).any()
-    faded = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(mid, small)])
+    faded = pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral"), alignment=al,
+                             emotion_changes=[(mid, small)])
     assert (np.abs(np.diff(faded.curves, axis=0)) <= own + step * np.maximum(gap[1:], gap[:-1]) + 1e-9).all()
     doc = mixed.to_dict()
     assert doc["emotions"] == [{"emotion": "neutral", "time": 0.0, "fade": None},
@@ -110,18 +114,19 @@ def test_inline_tags_in_analyze_never_reach_the_aligner(monkeypatch, line):
                          list(al.phones), al.duration)
 
     monkeypatch.setattr(pipeline, "align_audio", fake_align)
-    r = pipeline.analyze(snd, "one two three four [sad] five six seven [neutral] eight", emotion="neutral")
+    r = pipeline.analyze(snd, "one two three four [sad] five six seven [neutral] eight",
+                         LineSettings.of(emotion="neutral"))
     assert "[" not in seen["text"] and "sad" not in seen["text"]
     assert [(e["emotion"], e["time"]) for e in r.emotions] == [
         ("neutral", 0.0), ("sad", round(al.words[4].start, 4)), ("neutral", round(al.words[7].start, 4))]
-    sad = pipeline.analyze(snd, alignment=al, emotion="sad")
-    neutral = pipeline.analyze(snd, alignment=al, emotion="neutral")
+    sad = pipeline.analyze(snd, settings=LineSettings.of(emotion="sad"), alignment=al)
+    neutral = pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral"), alignment=al)
     mid = (r.times >= al.words[4].start) & (r.times < al.words[7].start - 0.3)
     assert np.array_equal(r.curves[mid], sad.curves[mid])
     end = r.times >= al.words[7].start
     assert np.array_equal(r.curves[end], neutral.curves[end])
     # A tag before the first word sets the line's emotion from the start.
-    r = pipeline.analyze(snd, "[sad] one two three four five six seven eight", emotion="neutral")
+    r = pipeline.analyze(snd, "[sad] one two three four five six seven eight", LineSettings.of(emotion="neutral"))
     assert np.array_equal(r.curves, sad.curves)
     assert r.emotions == [{"emotion": "sad", "time": 0.0, "fade": None}]
     # ... and the line's emotion is that one, as with --emotion sad.
@@ -148,7 +153,7 @@ def test_preset_file_in_a_tag_is_read_from_the_transcripts_folder(monkeypatch, l
     monkeypatch.setattr(pipeline, "align_audio", fake_align)
     text = transcript.read_text(encoding="utf-8")
     r = pipeline.analyze(snd, text, transcript_path=transcript)
-    angry = pipeline.analyze(snd, alignment=al, emotion="angry")
+    angry = pipeline.analyze(snd, settings=LineSettings.of(emotion="angry"), alignment=al)
     assert r.emotion == "presets/grumpy.json" and np.array_equal(r.curves, angry.curves)
     # Without the transcript's folder the path means nothing here: an error naming the tag.
     with pytest.raises(LipSyncError, match=r"presets/grumpy\.json"):
@@ -172,9 +177,9 @@ def test_presets_with_different_viseme_sets_cannot_share_a_line(line, tmp_path):
     p = presets.read("neutral")
     p["learned"] = {"viseme_set": "arkit", "targets": {"aa": {"jawOpen": 1.0}}}
     with pytest.raises(Exception, match="viseme set"):
-        pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.5, p)])
+        pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral"), alignment=al, emotion_changes=[(0.5, p)])
     with pytest.raises(Exception, match="viseme set"):   # also when it takes over from the start
-        pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(0.0, p)])
+        pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral"), alignment=al, emotion_changes=[(0.0, p)])
 
 
 def test_batch_honours_inline_tags(tmp_path, fixtures):
@@ -199,7 +204,7 @@ def test_batch_emotion_fade_option_reaches_every_line(tmp_path, fixtures):
     (tmp_path / "m.csv").write_text('audio,text\nbob_map.wav,"Bob bought [angry] a map."\n')
     assert cli.main(["batch", str(tmp_path / "m.csv"), "--emotion-fade", "0.05", "--quiet"]) == 0
     doc = json.loads((tmp_path / "bob_map.json").read_text())
-    want = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.", emotion_fade=0.05)
+    want = pipeline.analyze(fixtures / "bob_map.wav", "Bob bought [angry] a map.", LineSettings.of(emotion_fade=0.05))
     start, end = doc["emotions"][1]["fade"]
     assert end - start == pytest.approx(0.05)
     assert doc.pop("produced_by")["settings"]["emotion_fade"] == 0.05

@@ -12,6 +12,7 @@ import pytest
 from addon.engine import conventions, expression, learning, mapping, pipeline, presets, visemes
 from addon.engine.errors import PresetError
 from addon.engine.language import phone_class
+from addon.engine.settings import LineSettings
 from voice_synth import voice
 
 sys.path.insert(0, str(presets.DATA.parents[3] / "sample_rigs"))
@@ -31,7 +32,8 @@ def line():
 @pytest.fixture(scope="module")
 def results(line):
     snd, al = line
-    return {name: pipeline.analyze(snd, alignment=al, emotion=name, fps=FPS) for name in presets.builtin_names()}
+    return {name: pipeline.analyze(snd, settings=LineSettings.of(emotion=name, fps=FPS), alignment=al)
+            for name in presets.builtin_names()}
 
 
 def _speaking(r, al):
@@ -123,7 +125,8 @@ def test_intensity_follows_the_voice_and_brows_rise_on_accents():
 def test_cross_fades_with_emotion_changes(line, results):
     snd, al = line
     change = al.words[4].start
-    mixed = pipeline.analyze(snd, alignment=al, emotion="neutral", emotion_changes=[(change, "happy")], fps=FPS)
+    mixed = pipeline.analyze(snd, settings=LineSettings.of(emotion="neutral", fps=FPS), alignment=al,
+                             emotion_changes=[(change, "happy")])
     t = mixed.times
     assert set(mixed.expression) == set(results["happy"].expression)
     for u, v in mixed.expression.items():
@@ -183,7 +186,7 @@ def test_the_closing_pose_presses_no_further_than_the_expression_holds_the_lips(
 @pytest.mark.parametrize("name", sorted(EMFACS))
 def test_lips_close_at_every_bilabial_under_every_preset_on_arkit(line, name):
     snd, al = line
-    r = pipeline.analyze(snd, alignment=al, emotion=name, viseme_set="arkit", fps=FPS)
+    r = pipeline.analyze(snd, settings=LineSettings.of(emotion=name, viseme_set="arkit", fps=FPS), alignment=al)
     names, values = _arkit_keys(r)
     col = {k: i for i, k in enumerate(names)}
     for p in al.phones:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon.engine import analyze, batch
+from addon.engine import LineSettings, analyze, batch
 from addon.engine.audio import from_samples
 from addon.engine.errors import LipSyncError, TranscriptError
 from addon.engine.language import Lexicon, espeak, languages, normalize, resolve_language, skipped_words
@@ -186,7 +186,7 @@ def test_slashes_that_are_not_ipa_words():
 def test_english_is_the_default_and_unchanged():
     text = (FIX / "bob_map.txt").read_text()
     default = analyze(FIX / "bob_map.wav", text)
-    english = analyze(FIX / "bob_map.wav", text, language="eng")
+    english = analyze(FIX / "bob_map.wav", text, LineSettings.of(language="eng"))
     assert default.to_dict() == english.to_dict()
     assert default.to_dict()["language"] == "en"
     assert [w.source for w in default.alignment.words] == ["cmudict"] * 4
@@ -208,7 +208,7 @@ LINES = [
 def test_a_spoken_line_is_aligned_and_the_lips_close(code, voice, text):
     text, said = text if isinstance(text, tuple) else (text, text)   # kanji: eSpeak NG speaks the kana
     snd = spoken(said, voice)
-    result = analyze(snd, text, language=code, fps=100)
+    result = analyze(snd, text, LineSettings.of(language=code, fps=100))
     doc = result.to_dict()
     assert doc["language"] == code
     words = normalize(text, code)
@@ -272,9 +272,9 @@ def test_batch_language_column(tmp_path):
     assert "language" not in docs["en"]["produced_by"]["settings"]
     # A second run finds every line up to date; another --language redoes the line that follows it.
     lines = batch.read_manifest(tmp_path / "m.csv", out_dir=str(tmp_path / "out"))
-    spanish = batch.Defaults(language="spa")
+    spanish = LineSettings.of(language="spa")
     assert [batch.up_to_date(ln, spanish) for ln in lines[:3]] == [True, True, True]
-    assert [batch.up_to_date(ln, batch.Defaults(language="pt")) for ln in lines[:3]] == [True, False, True]
+    assert [batch.up_to_date(ln, LineSettings.of(language="pt")) for ln in lines[:3]] == [True, False, True]
 
 
 def test_unknown_manifest_columns_are_errors(tmp_path):
@@ -296,7 +296,7 @@ def test_unscripted_speech_in_another_language_is_animated_without_english_words
     adlib = "Danach gehen wir zusammen in den großen Park und spielen Fußball bis zum Abend."
     snd = spoken(scripted + " " + adlib, "de")
     said = spoken(scripted, "de").duration - 0.3        # where the scripted sentence ends
-    r = analyze(snd, scripted, language="de")
+    r = analyze(snd, scripted, LineSettings.of(language="de"))
     al = r.alignment
     # The transcript's words stay on their own speech (speech after the script's end no longer pulls the last
     # of them seconds later: alignment.tail), and the ad-lib is unscripted.
@@ -322,7 +322,7 @@ def test_speech_before_the_script_does_not_pull_its_first_words():
     adlib = "Danach gehen wir zusammen in den großen Park und spielen Fußball bis zum Abend."
     snd = spoken(adlib + " " + scripted, "de")
     before = spoken(adlib, "de").duration - 0.3     # where the ad-lib ends, about
-    r = analyze(snd, scripted, language="de")
+    r = analyze(snd, scripted, LineSettings.of(language="de"))
     words = [w for w in r.alignment.words if not w.recognized]
     assert [w.text for w in words][0] == "morgen" and words[0].start >= before - 0.1, words[0]
     grid = np.arange(0.4, before - 0.2, 0.01)

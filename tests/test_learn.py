@@ -27,6 +27,7 @@ from addon.engine import learning, pipeline, presets, visemes
 from addon.engine.learning import capture
 from addon.engine.alignment import align_audio
 from addon.engine.cli import main as cli_main
+from addon.engine.settings import LineSettings
 from addon.engine.errors import ImportFormatError, LipSyncError, PresetError
 
 from conftest import FIXTURES, SAMPLE, write_wav
@@ -116,12 +117,13 @@ def test_learned_preset_plugs_into_generation(examples, tmp_path):
     assert report["clips"]["heldout"] == [clips[5].name] and report["base_preset"] == "angry"
     loaded = presets.read(preset_path)
     assert loaded["learned"]["report"] == "angry_b.report.json"
-    r = pipeline.analyze(SAMPLE / "hello.wav", (SAMPLE / "hello.txt").read_text(), emotion=str(preset_path))
+    r = pipeline.analyze(SAMPLE / "hello.wav", (SAMPLE / "hello.txt").read_text(),
+                         LineSettings.of(emotion=str(preset_path)))
     assert r.viseme_set.name == "arkit"
     assert r.viseme_set.mix("aa") == loaded["learned"]["targets"]["aa"]
     assert r.curves.shape[1] == 15 and 0 <= r.curves.min() and r.curves.max() <= 1
     with pytest.raises(LipSyncError, match="learned with the 'arkit' viseme set"):
-        pipeline.analyze(SAMPLE / "hello.wav", "hello", emotion=str(preset_path), viseme_set="default")
+        pipeline.analyze(SAMPLE / "hello.wav", "hello", LineSettings.of(emotion=str(preset_path), viseme_set="default"))
     out = tmp_path / "o.json"
     assert cli_main(["analyze", str(SAMPLE / "hello.wav"), "--transcript", str(SAMPLE / "hello.txt"),
                      "--emotion", str(preset_path), "--json", str(out), "--quiet"]) == 0

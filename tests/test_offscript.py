@@ -16,6 +16,7 @@ import pytest
 from addon.engine import audio as audio_mod
 from addon.engine.language.phonemes import VOWELS
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 from conftest import FIXTURES, ROOT, SAMPLE
 
 HELLO = SAMPLE / "hello.wav"
@@ -350,7 +351,7 @@ def test_no_transcript_in_another_language_says_recognition_is_english_only():
     from addon.engine.errors import LipSyncError
 
     with pytest.raises(LipSyncError, match="German needs its transcript.*English only"):
-        analyze(HELLO, None, language="de")
+        analyze(HELLO, None, LineSettings.of(language="de"))
 
 
 

@@ -21,8 +21,8 @@ LAYERS = [
     ["errors", "datafile", "framerate", "smoothing", "fcurve_eval"],
     ["language", "resampling", "wavstream", "decoders", "audio", "pauses"],
     ["visemes", "conventions", "presets", "prosody", "weights", "arousal", "alignment", "importers"],
-    ["coarticulation", "emotion_track", "expression", "render", "mapping", "key_reduction", "pose_blend"],
-    ["output", "pipeline", "learning"],
+    ["coarticulation", "emotion_track", "expression", "settings", "render", "mapping", "key_reduction", "pose_blend"],
+    ["output", "pipeline", "learning", "keys"],
     ["batch", "cli", "arousal_cli", "__main__"],
 ]
 

@@ -29,7 +29,6 @@ import bpy
 
 from ..engine import batch, visemes
 from ..engine.errors import LipSyncError
-from ..engine.language import resolve_language
 from ..engine.language.text import read_text_file
 from . import compat, run, sources, userdata
 
@@ -135,41 +134,29 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
         if mesh is None:
             raise LipSyncError(f"no object named {line.extra['mesh']!r}")
     strip = sources.strip_by_name(scene, line.extra["strip"]) if "strip" in line.extra else None
-    if strip is not None:
-        obj = sources.strip_target(strip, mesh)
-        if obj is None:
-            raise LipSyncError(f"strip {strip.name!r}: no mesh (give --mesh, set the strip's "
-                               "lipsync_target property, or name the strip after the mesh)")
-        clip = sources.strip_clip(scene, strip)
-    else:
-        obj = mesh
-        if obj is None:
-            raise LipSyncError(f"{line.audio}: no mesh (give a 'mesh' column or --mesh)")
-        frame = state["frame"]
-        if "frame" in line.extra:
-            try:
-                frame = int(line.extra["frame"])
-            except ValueError:
-                raise LipSyncError(f"frame {line.extra['frame']!r} is not a whole number") from None
-        clip = sources.file_clip(line.audio, frame)
+    frame = state["frame"]
+    if strip is None and "frame" in line.extra:
+        try:
+            frame = int(line.extra["frame"])
+        except ValueError:
+            raise LipSyncError(f"frame {line.extra['frame']!r} is not a whole number") from None
+
+    def place(clip):   # the next audio file starts after this one, keyed or not
         state["frame"] = frame + math.ceil(clip.audio.duration * sources.scene_fps(scene)) + 1
+
+    given = fixed if fixed is not None else line.text
+    inputs = sources.line_inputs(
+        scene, strip=strip, audio=None if strip is not None else line.audio, frame=frame, fallback=mesh,
+        no_target="give --mesh, set the strip's lipsync_target property, or name the strip after the mesh"
+        if strip is not None else "give a 'mesh' column or --mesh",
+        text=given, transcript_file=line.transcript if given is None else None, language=line.language or None,
+        on_clip=place if strip is None else None)
     viseme_set = line.viseme_set or args.viseme_set
-    if viseme_set and (line.viseme_set or obj is not mesh or args.manifest):
-        _set_viseme_set(obj, viseme_set)
-    if fixed is not None:
-        text = fixed
-    elif line.text is not None or line.transcript:
-        text = batch.line_text(line)
-    elif strip is not None:
-        text = sources.strip_transcript(strip, clip.audio_path)[0]
-    else:
-        text = sources.transcript(audio_path=clip.audio_path)[0]
+    if viseme_set and (line.viseme_set or inputs.target is not mesh or args.manifest):
+        _set_viseme_set(inputs.target, viseme_set)
     if line.emotion:
-        options = dataclasses.replace(options, emotion=userdata.load_preset(line.emotion))
-    language = line.language or (sources.strip_language(strip) if strip is not None else None)
-    if language:
-        options = dataclasses.replace(options, language=language)
-    return run.generate(scene, obj, clip, text, options)
+        options = dataclasses.replace(options, line=options.line.replace(emotion=userdata.load_preset(line.emotion)))
+    return run.generate(scene, inputs, options)
 
 
 def execute(argv: list[str]) -> int:
@@ -194,9 +181,8 @@ def execute(argv: list[str]) -> int:
         if args.audio and not args.mesh:
             raise UsageError("--audio needs --mesh: the face mesh to key")
         fixed = _fixed_text(args)
-        options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary)
-        if args.language:
-            options = dataclasses.replace(options, language=resolve_language(args.language).code)
+        options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary,
+                              args.language)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)
@@ -214,7 +200,7 @@ def execute(argv: list[str]) -> int:
 
     # Every line, from a manifest or from the options, goes through the batch
     # runner in this process: the models are loaded once for all of them.
-    batch.warm(options.dictionary)
+    batch.warm(options.line.dictionary)
     state = {"frame": args.frame if args.frame is not None else scene.frame_start}
 
     def key_line(line: batch.Line, _defaults) -> batch.Outcome:
@@ -229,7 +215,7 @@ def execute(argv: list[str]) -> int:
         print(summary.message())
         return batch.Outcome(line.number, line.label(), "ok")
 
-    for _ in batch.run_inline(jobs, batch.Defaults(), key_line):
+    for _ in batch.run_inline(jobs, options.line, key_line):
         pass
 
     if done and (args.save or args.output):

@@ -28,7 +28,7 @@ from collections.abc import Callable
 import bpy
 
 from ..engine.errors import LipSyncError
-from . import run
+from . import run, sources
 
 GENERATE = "generate"
 LEARN = "learn"
@@ -275,14 +275,15 @@ def restore(group, values: dict) -> None:
 
 # --- Generate's job ---------------------------------------------------------------
 
-def lipsync_job(scene, obj, clip, text: str | None, options: run.Options) -> Job:
-    """Generate as a job: the mesh's mapping and the scene's frame rate are
-    read now, the engine runs in the thread, and the keys are written when
-    the job is polled done, if the scene and the mesh are still there."""
+def lipsync_job(scene, line: sources.LineInputs, options: run.Options) -> Job:
+    """Generate as a job: the mesh's mapping is read now, the engine runs in
+    the thread, and the keys are written when the job is polled done, if
+    the scene and the mesh are still there."""
     ensure_free(GENERATE)
+    obj = line.target
     before = snapshot(obj.emotive_lipsync)
-    plan = run.plan(scene, obj, clip, text, options)
-    what = f"lip sync {clip.label!r} -> {obj.name}"
+    plan = run.plan(scene, line, options)
+    what = f"lip sync {line.clip.label!r} -> {obj.name}"
 
     def finish(analysis) -> tuple[str, str]:
         if bpy.data.scenes.get(plan.scene) is None:

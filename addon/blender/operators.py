@@ -8,7 +8,6 @@ before anything has been written.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 
 import bpy
@@ -84,29 +83,21 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
     tolerance: FloatProperty(name="Tolerance", default=-1.0,
                              description="Key reduction tolerance; 0 keys every frame (-1: the panel's)")
 
-    def _inputs(self, context):
-        """(mesh, clip, transcript, options): the properties, else the panel's settings."""
+    def _inputs(self, context) -> tuple[sources.LineInputs, run.Options]:
+        """The line and how to lip-sync it: the properties, else the panel's settings."""
         if self.frame < -1:
             raise LipSyncError(f"start frame {self.frame} is not allowed: give 0 or later "
                                "(-1: the panel's start frame)")
-        scene = context.scene
-        st = scene.emotive_lipsync
+        st = context.scene.emotive_lipsync
         obj = face(context, self.mesh)
         options = _options(context, self.emotion, self.coarticulation, self.tolerance)
-        if self.filepath or (not self.strip and st.source == "FILE"):
-            path = self.filepath or st.audio_file
-            frame = self.frame if self.frame >= 0 else st.start_frame
-            clip = sources.file_clip(path, frame)
-        else:
-            name = self.strip or st.strip
-            strip = sources.strip_by_name(scene, name) if name else sources.active_sound_strip(scene)
-            if strip is None:
-                raise LipSyncError("no sound strip: add one to the sequencer, pick it in the Lip Sync "
-                                   "panel, or choose an audio file")
-            clip = sources.strip_clip(scene, strip)
-        text, _where = (sources.transcript(self.text) if self.text else
-                        sources.transcript(st.text, st.text_block, clip.audio_path))
-        return obj, clip, text, options
+        from_file = self.filepath or (not self.strip and st.source == "FILE")
+        line = sources.line_inputs(context.scene, strip=self.strip or st.strip,
+                                   audio=(self.filepath or st.audio_file) if from_file else None,
+                                   frame=self.frame if self.frame >= 0 else st.start_frame, target=obj,
+                                   text=self.text if self.text.strip() else None, typed=st.text,
+                                   text_block=st.text_block, strip_properties=False)
+        return line, options
 
     def execute(self, context):
         progress = _Progress(context)
@@ -165,16 +156,10 @@ property, else the mesh its name starts with)"""
             for i, strip in enumerate(strips):
                 progress.part = i
                 try:
-                    obj = sources.strip_target(strip, fallback)
-                    if obj is None:
-                        raise LipSyncError(f"strip {strip.name!r}: no mesh (set its lipsync_target property "
-                                           "or name it after the mesh)")
-                    run.check_mesh(obj)
-                    clip = sources.strip_clip(scene, strip)
-                    text, _where = sources.strip_transcript(strip, clip.audio_path)
-                    language = sources.strip_language(strip)
-                    line_options = dataclasses.replace(options, language=language) if language else options
-                    done.append(run.generate(scene, obj, clip, text, line_options, progress))
+                    line = sources.line_inputs(scene, strip=strip, fallback=fallback,
+                                               no_target="set its lipsync_target property or name it after "
+                                                         "the mesh")
+                    done.append(run.generate(scene, line, options, progress))
                 except LipSyncError as exc:
                     problems.append(str(exc))
         finally:

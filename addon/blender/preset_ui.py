@@ -78,7 +78,7 @@ class LIPSYNC_OT_preset_add(bpy.types.Operator):
             return self._remove(st)
         try:
             name = userdata.check_name(self.name)
-            preset = st.preset()
+            preset = userdata.panel_preset(st)
             preset.name = name
             preset.description = f"Saved from the Lip Sync panel (based on {st.emotion})"
             path = userdata.save_preset(preset, name, self.overwrite)

@@ -12,8 +12,6 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 
 from ..engine import presets, visemes
 from ..engine.emotion_track import DEFAULT_FADE
-from ..engine.errors import LipSyncError
-from . import userdata
 
 # Stored as numbers: the sets of the first release keep theirs, so older
 # files read back the same choice; later sets are numbered from 10 up.
@@ -177,25 +175,6 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                                             "transcript, an emotion:angry timeline marker) cross-fades")
     dictionary: StringProperty(name="Dictionary", subtype="FILE_PATH",
                                description="Your own pronunciations: lines of WORD PH1 PH2 ... (ARPAbet)")
-
-    def preset(self) -> presets.Preset:
-        """The preset as edited in the panel, validated (the named preset
-        itself when the panel holds no numbers)."""
-        if not self.preset_values:
-            return userdata.load_preset(self.emotion)
-        flat = {item.path: item.value() for item in self.preset_values}
-        flat.setdefault("name", self.emotion)
-        where = f"preset {self.emotion!r} (as edited)"
-        try:
-            doc = presets.from_flat(flat)
-            if self.learned:
-                doc["learned"] = json.loads(self.learned)
-            return presets.as_preset(doc, where)
-        except LipSyncError:
-            raise
-        except Exception:  # noqa: BLE001 - numbers the panel cannot put back together
-            raise LipSyncError(f"{where}: the panel's numbers do not fit the preset's fields; pick the preset "
-                               "from the menu again") from None
 
     def load_preset(self, preset: presets.Preset | dict, name: str) -> None:
         doc = preset.to_dict() if isinstance(preset, presets.Preset) else preset

@@ -7,64 +7,52 @@ out from the scene's Lip Sync settings); nothing here reads the UI.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from dataclasses import dataclass, field
 
 import bpy
 
-from ..engine import conventions, expression, pipeline, visemes
+from ..engine import conventions, keys, pipeline, visemes
 from ..engine.output import Result
-from ..engine.presets import Preset
-from ..engine.render import viseme_set_for
-from ..engine import mapping as mapping_mod
-from ..engine.alignment import AlignSettings
-from ..engine.language import resolve_language
-from ..engine.emotion_track import DEFAULT_FADE
 from ..engine.errors import LipSyncError
+from ..engine.settings import LineSettings
 from . import compat, emotion_markers, keying, rig, userdata
-from .sources import Clip, scene_fps
+from .sources import Clip, LineInputs, scene_fps
 
 
-@dataclass
+@dataclass(frozen=True)
 class Options:
-    """How to lip-sync, as plain values."""
+    """How to lip-sync: the line's settings, as the engine takes them, and
+    what only Blender has."""
 
-    emotion: Preset                      # the emotion preset
-    coarticulation: str = "dominance"
-    tolerance: float = 0.0               # 0: a key on every frame
-    dictionary: str | None = None
-    workers: int = 0
+    line: LineSettings                   # the emotion, coarticulation, frame rate, dictionary, language ...
+    tolerance: float = 0.0               # key reduction: 0 keys every frame
     whole_character: bool = True         # also key the character's other meshes with those shape keys
-    emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
-    language: str | None = None          # the transcript's language code (None: English)
-
-
-COARTICULATION = ("dominance", "rules")
 
 
 def options(scene, emotion: str | None = None, coarticulation: str | None = None, tolerance: float | None = None,
-            dictionary: str | None = None) -> Options:
+            dictionary: str | None = None, language: str | None = None) -> Options:
     """How to lip-sync: each value given (an operator's property, a
-    command-line argument), else the scene's Lip Sync settings.
+    command-line argument), else the scene's Lip Sync settings; the frame
+    rate is the scene's.
 
     ``emotion`` names a preset as :func:`.userdata.load_preset` reads it;
     without it the panel's preset, with its edited numbers, is used.
     ``tolerance`` 0 keys every frame; without it the panel's (when Reduce
     Keys is on).  Paths may start with ``//`` (relative to the .blend)."""
     st = scene.emotive_lipsync
-    preset = userdata.load_preset(emotion) if emotion else st.preset()
-    coarticulation = coarticulation or st.coarticulation
-    if coarticulation not in COARTICULATION:
-        raise LipSyncError(f"{coarticulation!r} is not a coarticulation model: use {' or '.join(COARTICULATION)}")
+    preset = userdata.load_preset(emotion) if emotion else userdata.panel_preset(st)
     if tolerance is None:
         tolerance = st.tolerance if st.reduce_keys else 0.0
     elif not tolerance >= 0:
         raise LipSyncError(f"the key reduction tolerance must be 0 or more (0 keys every frame), got {tolerance}")
     dictionary = dictionary or st.dictionary
-    language = resolve_language(st.language).code if st.language.strip() else None
-    return Options(preset, coarticulation, tolerance, bpy.path.abspath(dictionary) if dictionary else None,
-                   whole_character=st.whole_character, emotion_fade=st.emotion_fade, language=language)
+    line = LineSettings.of(preset, coarticulation=coarticulation or st.coarticulation, fps=scene_fps(scene),
+                           dictionary=bpy.path.abspath(dictionary) if dictionary else None,
+                           language=language or st.language.strip() or None, emotion_fade=st.emotion_fade)
+    return Options(line, tolerance, whole_character=st.whole_character)
 
 
 @dataclass
@@ -300,10 +288,8 @@ class Plan:
     mesh: str
     clip: Clip
     text: str | None                 # None: the words are recognised from the audio
-    options: Options
-    fps: float
+    options: Options                 # the line's own: its viseme set is the mesh's (None: the learned preset's)
     mapping: dict[str, dict[str, float]]
-    viseme_set: str | None                 # the engine's viseme set (None: the learned preset's own)
     closure: conventions.Closure
     started: float = field(default_factory=time.perf_counter)
     also: list[str] = field(default_factory=list)   # companion meshes to key too
@@ -319,26 +305,32 @@ class Analysis:
     seconds: float
 
 
-def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
+def plan(scene, line: LineInputs, options: Options) -> Plan:
     """Read a run's inputs from Blender (an empty mapping is filled in first,
-    see :func:`mesh_mapping`)."""
-    if options.emotion.learned is not None:
-        # A learned preset carries its own poses, in the training mesh's
-        # shape-key names.
-        names = set(check_mesh(obj))
-        poses = viseme_set_for(options.emotion).shape_keys
-        mp = {v: {k: w for k, w in mix.items() if k in names} for v, mix in poses.items()}
-        mp = {v: mix for v, mix in mp.items() if mix}
-        if not mp:
-            wanted = sorted({k for mix in poses.values() for k in mix})
-            raise LipSyncError(f"the learned preset {options.emotion.name!r} drives shape keys "
-                               f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
-                               "has none of them")
+    see :func:`mesh_mapping`).  The line's settings are ``options``' with
+    the mesh's viseme set and the line's own language, if it has one."""
+    obj, clip = line.target, line.clip
+    learned = options.line.emotion.learned is not None
+    if learned:
         set_source = None
         closure = conventions.Closure()
     else:
         vset, mp, closure = mesh_mapping(obj)
         set_source = obj.emotive_lipsync.viseme_set_source() or vset.name
+    own = {"language": line.language} if line.language else {}
+    options = dataclasses.replace(options, line=options.line.replace(viseme_set=set_source, **own))
+    if learned:
+        # A learned preset carries its own poses, in the training mesh's
+        # shape-key names.
+        names = set(check_mesh(obj))
+        poses = options.line.visemes.shape_keys
+        mp = {v: {k: w for k, w in mix.items() if k in names} for v, mix in poses.items()}
+        mp = {v: mix for v, mix in mp.items() if mix}
+        if not mp:
+            wanted = sorted({k for mix in poses.values() for k in mix})
+            raise LipSyncError(f"the learned preset {options.line.emotion.name!r} drives shape keys "
+                               f"{', '.join(wanted[:6])}{' ...' if len(wanted) > 6 else ''}; mesh {obj.name!r} "
+                               "has none of them")
     if obj.type == "ARMATURE":   # the expression layer drives shape keys only
         face = conventions.ExpressionMatch({})
     else:
@@ -349,21 +341,16 @@ def plan(scene, obj, clip: Clip, text: str | None, options: Options) -> Plan:
     also = [o.name for o in companions(obj, driven)] if options.whole_character and obj.type == "MESH" else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
-    return Plan(scene.name, obj.name, clip, text, options, scene_fps(scene), mp, set_source, closure, also=also,
-                emotions=marks, find_preset=find, expression=face)
+    return Plan(scene.name, obj.name, clip, line.text, options, mp, closure, also=also, emotions=marks,
+                find_preset=find, expression=face)
 
 
 def analyze(plan: Plan, progress=None) -> Analysis:
     """The engine's part of a run.  It touches no Blender data, so it may run
     in a background thread."""
     t0 = time.perf_counter()
-    o = plan.options
-    result = pipeline.analyze(plan.clip.audio, plan.text, viseme_set=plan.viseme_set,
-                              emotion=o.emotion, coarticulation_model=o.coarticulation,
-                              fps=plan.fps, dictionary=o.dictionary,
-                              settings=AlignSettings(workers=o.workers), progress=progress,
-                              emotion_changes=plan.emotions, emotion_fade=o.emotion_fade,
-                              emotion_lookup=plan.find_preset, language=o.language)
+    result = pipeline.analyze(plan.clip.audio, plan.text, plan.options.line, progress=progress,
+                              emotion_changes=plan.emotions, emotion_lookup=plan.find_preset)
     return Analysis(result, time.perf_counter() - t0)
 
 
@@ -371,39 +358,26 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     """Write an analysed run's keys on ``obj``'s mapped shape keys (main thread)."""
     t0 = time.perf_counter()
     result, clip = analysis.result, plan.clip
-    names, values = mapping_mod.shape_key_curves(result.curves, result.viseme_set.visemes, plan.mapping)
     if obj.type == "ARMATURE":
-        return _key_rig(obj, plan, analysis, names, values, t0)
-    speech = list(names)
-    face = _expression_keys(obj, plan, result, names, len(values))
-    ex_values = face["values"]
-    phones = [(p.phone, p.start, p.end) for p in result.alignment.phones]
-    lower = {k for u, mix in plan.expression.mapping.items() if expression.lower_face(u) for k in mix}
-    if plan.closure.relax == "others":
-        # The basis shows closed lips: the mouth's expression keys open on /p b m/ only as far as it does.
-        ex_values = expression.give_way(face["names"], ex_values, lower, result.times, phones)
-    else:
-        # The closing pose presses the lips only as far as the mouth's expression does not hold them together.
-        pressing = set(plan.mapping.get(plan.closure.viseme, {})) - set(plan.closure.relative) - \
-            plan.closure.relaxed_keys(plan.mapping)
-        values = expression.seal(names, values, pressing, face["names"], ex_values, lower, result.times, phones)
-    names, values = expression.combine(names, values, face["names"], ex_values)
-    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
+        return _key_rig(obj, plan, analysis, t0)
+    face = plan.expression.mapping
+    animated = keying.user_animated(obj, sorted({k for mix in face.values() for k in mix}))
+    line = keys.mesh_keys(result, plan.mapping, plan.closure, face, animated)
+    names, values = line.names, line.table()
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
                            "nothing was keyed")
-    last = clip.first_frame + len(values) - 1
-    stale = sorted({k for mix in plan.expression.mapping.values() for k in mix} - set(names) - set(face["kept"]))
-    keying.forget(obj, stale, clip.first_frame, last)
+    keying.forget(obj, line.dropped, clip.first_frame, clip.first_frame + line.frames - 1)
     counts = keying.write(obj, names, values, clip.first_frame, plan.options.tolerance, clip.label)
     also = []
+    only_face = set(line.driven_only_by(keys.EXPRESSION))
     for name in plan.also:
         other = bpy.data.objects.get(name)
         have = set(check_mesh(other)) if other is not None and other.type == "MESH" and \
             other.data.shape_keys is not None else set()
         if have:   # the companion's own animation on an expression key wins there too
-            have -= set(keying.user_animated(other, sorted(have & set(face["names"]) - set(speech))))
+            have -= set(keying.user_animated(other, sorted(have & only_face)))
         cols = [j for j, k in enumerate(names) if k in have]
         if cols:   # a companion deleted or changed meanwhile is simply left alone
             keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
@@ -419,8 +393,8 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
                    last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
-                   warnings=list(result.warnings), expression=face["units"], expression_keys=face["names"],
-                   no_key=face["no_key"], kept=face["kept"], **_heard(words, result))
+                   warnings=list(result.warnings), expression=line.units, expression_keys=line.expression_keys,
+                   no_key=line.no_key, kept=line.kept, **_heard(words, result))
 
 
 def _heard(words, result: Result) -> dict:
@@ -432,52 +406,27 @@ def _heard(words, result: Result) -> dict:
             "recognized": bool(words) and all(w.recognized for w in words)}
 
 
-def closing_names(vset: visemes.VisemeSet, mapping: dict[str, dict[str, float]]) -> list[str]:
-    """The names the visemes of /p b m/ drive (the poses that shut the lips)."""
-    out = []
-    for phone in ("P", "B", "M"):
-        for v in vset.phonemes.get(phone, []):
-            out += [k for k in mapping.get(v, {}) if k not in out]
-    return out
-
-
-def _key_rig(obj, plan: Plan, analysis: Analysis, names: list[str], values, t0: float) -> Summary:
+def _key_rig(obj, plan: Plan, analysis: Analysis, t0: float) -> Summary:
     """:func:`key` on an armature: the mapped poses blended onto its bones,
     its mapped properties keyed as shape keys are."""
     result, clip = analysis.result, plan.clip
-    names, values = conventions.apply_closure(names, values, result.closure, plan.closure, plan.mapping)
-    gone = sorted(set(names) - set(check_mesh(obj)))
+    line = keys.rig_keys(result, plan.mapping, plan.closure)
+    gone = sorted(set(line.names) - set(check_mesh(obj)))
     if gone:
         raise LipSyncError(f"armature {obj.name!r} no longer has pose asset or property "
                            f"{', '.join(map(repr, gone))}; nothing was keyed")
-    paths, curves = rig.channels(obj, names, values, closing_names(result.viseme_set, plan.mapping),
-                                 result.closure)
+    paths, curves = rig.channels(obj, line.names, line.table(), line.closing, line.closure)
     counts = keying.write_rig(obj, paths, curves, clip.first_frame, plan.options.tolerance, clip.label)
     t1 = time.perf_counter()
     words = result.alignment.words
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
-                   last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
+                   last_frame=counts["last_frame"], shape_keys=len(line.channels), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0},
                    warnings=list(result.warnings),
                    driven=f"poses and properties ({len(paths)} bone and property channels)", **_heard(words, result))
 
 
-def _expression_keys(obj, plan: Plan, result: Result, speech: list[str], frames: int) -> dict:
-    """The expression's shape-key curves on ``obj``: its units on the keys the
-    mesh has for them, without the keys the user animates (the user's
-    animation wins; keys speech also drives are speech's and keyed as
-    before).  Also which units had no key and which keys were left."""
-    mapping = plan.expression.mapping
-    units = [u for u in result.expression if u in mapping]
-    no_key = [u for u in result.expression if u not in mapping]
-    names, values = expression.key_curves({u: result.expression[u] for u in units}, mapping, frames)
-    kept = keying.user_animated(obj, [k for k in names if k not in speech])
-    cols = [j for j, k in enumerate(names) if k not in kept]
-    return {"names": [names[j] for j in cols], "values": values[:, cols], "units": units, "no_key": no_key,
-            "kept": kept}
-
-
-def generate(scene, obj, clip: Clip, text: str | None, options: Options, progress=None) -> Summary:
-    """Analyse ``clip`` and key ``obj``'s mapped shape keys from the clip's frame."""
-    p = plan(scene, obj, clip, text, options)
-    return key(obj, p, analyze(p, progress))
+def generate(scene, line: LineInputs, options: Options, progress=None) -> Summary:
+    """Analyse the line's clip and key its target's mapped shape keys from the clip's frame."""
+    p = plan(scene, line, options)
+    return key(line.target, p, analyze(p, progress))

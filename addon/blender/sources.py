@@ -1,4 +1,6 @@
-"""Where the audio, the transcript and the target mesh come from.
+"""Where the audio, the transcript, its language and the target mesh come
+from: :func:`line_inputs` answers for one line, whichever operator or
+command asks.
 
 Audio is decoded by Blender's own sound library (``aud``), so every format
 the sequencer plays works (a ``bpy`` build without it falls back on the
@@ -15,6 +17,7 @@ import os
 import re
 import stat
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import bpy
@@ -244,3 +247,66 @@ def strip_target(strip, fallback=None):
             if best is None or len(obj.name) > len(best.name):
                 best = obj
     return best or fallback
+
+
+@dataclass
+class LineInputs:
+    """One line to lip-sync, read from Blender: the object keyed, its sound,
+    its words and their language."""
+
+    target: object                 # the mesh (or armature) keyed
+    clip: Clip
+    text: str | None               # None: the words are recognised from the audio
+    language: str | None = None    # the line's own language, over the run's (None: the run's)
+
+
+def line_inputs(scene, *, strip=None, audio: str | None = None, frame: int = 0, target=None, fallback=None,
+                no_target: str = "", text: str | None = None, transcript_file: str | None = None,
+                typed: str = "", text_block=None, language: str | None = None, strip_properties: bool = True,
+                on_clip: Callable[[Clip], None] | None = None) -> LineInputs:
+    """Resolve one line: its sound, the object it keys, its words and their
+    language, each from the first place that has it.
+
+    * The sound: the file ``audio`` (keyed from ``frame``); else the sound
+      strip ``strip`` (a strip, or its name), else the scene's active one.
+    * The object: ``target``; else, for a strip, the one the strip names
+      (:func:`strip_target`); else ``fallback``.  With none, an error ending
+      in the ``no_target`` advice.
+    * The words: ``text``; else the file ``transcript_file``; else a strip's
+      ``lipsync_text``; else the text block ``text_block``, the ``typed``
+      text and the .txt beside the audio (:func:`transcript`); else none (they
+      are recognised).
+    * The language: ``language``; else a strip's ``lipsync_language``; else
+      none (the run's).
+
+    A strip's own properties (``lipsync_target``, ``lipsync_text``,
+    ``lipsync_language``) are for runs over many strips: the panel's
+    Generate, where the panel says it all, passes ``strip_properties=False``.
+    ``on_clip`` is told the clip as soon as it is read (the batch command
+    places the next audio file after it, keyed or not).
+    """
+    if audio is None:
+        if isinstance(strip, str) or strip is None:
+            strip = strip_by_name(scene, strip) if strip else active_sound_strip(scene)
+        if strip is None:
+            raise LipSyncError("no sound strip: add one to the sequencer, pick it in the Lip Sync panel, or "
+                               "choose an audio file")
+    else:
+        strip = None
+    own = strip_properties and strip is not None
+    if target is None:
+        target = strip_target(strip, fallback) if own else fallback
+        if target is None:
+            where = f"strip {strip.name!r}" if strip is not None else audio
+            raise LipSyncError(f"{where}: no mesh ({no_target})")
+    clip = strip_clip(scene, strip) if strip is not None else file_clip(audio, frame)
+    if on_clip is not None:
+        on_clip(clip)
+    if text is None and transcript_file:
+        text = read_text_file(transcript_file)[0]
+    elif text is None:
+        text = (strip_transcript(strip, clip.audio_path) if own else
+                transcript(typed, text_block, clip.audio_path))[0]
+    if language is None and own:
+        language = strip_language(strip)
+    return LineInputs(target, clip, text, language)

@@ -21,7 +21,9 @@ a file or its contents is a :class:`LipSyncError` saying what is wrong.
 
 from __future__ import annotations
 
+import json
 import os
+import stat
 
 import bpy
 
@@ -151,13 +153,19 @@ def _source(name: str, where: str, blend_folder: str) -> str:
         name = os.path.join(blend_folder, name[2:])
     try:
         path = os.path.abspath(name)
-        folder_given, exists = os.path.isdir(path), os.path.isfile(path)
-    except (OSError, ValueError):
+    except ValueError:
         raise LipSyncError(f"{_short(name)!r} is not a usable file path") from None
-    if folder_given:
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        raise LipSyncError(f"the preset file {path} does not exist") from None
+    except (OSError, ValueError) as exc:   # no permission to look, a name too long ...
+        raise LipSyncError(f"cannot read the preset file {path}: {getattr(exc, 'strerror', None) or 'unreadable'}"
+                           ) from None
+    if stat.S_ISDIR(mode):
         raise LipSyncError(f"{path} is a folder, not a preset file: give a .json file")
-    if not exists:
-        raise LipSyncError(f"the preset file {path} does not exist")
+    if not stat.S_ISREG(mode):
+        raise LipSyncError(f"{path} is not a file but a device, a pipe or a socket: give a .json preset file")
     return path
 
 
@@ -182,6 +190,26 @@ def source(name: str) -> str:
 def load_preset(name: str):
     """The preset ``name`` (a built-in, one of the user's, or a .json file)."""
     return _load(source(name))
+
+
+def panel_preset(settings) -> presets.Preset:
+    """The preset as edited in the Lip Sync panel (the scene's ``settings``),
+    validated; the named preset itself when the panel holds no numbers."""
+    if not settings.preset_values:
+        return load_preset(settings.emotion)
+    flat = {item.path: item.value() for item in settings.preset_values}
+    flat.setdefault("name", settings.emotion)
+    where = f"preset {settings.emotion!r} (as edited)"
+    try:
+        doc = presets.from_flat(flat)
+        if settings.learned:
+            doc["learned"] = json.loads(settings.learned)
+        return presets.as_preset(doc, where)
+    except LipSyncError:
+        raise
+    except Exception:  # noqa: BLE001 - numbers the panel cannot put back together
+        raise LipSyncError(f"{where}: the panel's numbers do not fit the preset's fields; pick the preset "
+                           "from the menu again") from None
 
 
 def finder():

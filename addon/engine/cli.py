@@ -11,8 +11,9 @@ from pathlib import Path
 from . import presets, visemes
 from .learning import capture
 from .emotion_track import DEFAULT_FADE
-from .errors import LipSyncError
+from .errors import LipSyncError, SettingError
 from .language.text import read_text_file
+from .settings import LineSettings
 
 
 def _style_options(p: argparse.ArgumentParser, per_line: bool) -> None:
@@ -37,20 +38,24 @@ def _style_options(p: argparse.ArgumentParser, per_line: bool) -> None:
 
 
 def _check_options(args) -> None:
-    """The checks argparse cannot make; a :class:`LipSyncError` names the option."""
+    """The checks argparse cannot make of the options that are not a line's
+    settings; a :class:`LipSyncError` names the option."""
     if args.workers < 0:
         raise LipSyncError("--workers must be 0 (one per core) or more")
-    if not args.emotion_fade >= 0 or args.emotion_fade == float("inf"):
-        raise LipSyncError(f"--emotion-fade must be 0 or more seconds, not {args.emotion_fade:g}")
     timeout = getattr(args, "cluster_timeout", 60.0)
     if not 0 < timeout < float("inf"):
         raise LipSyncError(f"--cluster-timeout must be more than 0 seconds, not {timeout:g}")
-    from .language import resolve_language
 
+
+def _line_settings(args, **more) -> LineSettings:
+    """The settings :func:`_style_options` read, built and checked once; a
+    bad value's error names its option (``--emotion-fade: ...``)."""
     try:
-        resolve_language(args.language)
-    except LipSyncError as exc:
-        raise LipSyncError(f"--language: {exc}") from None
+        return LineSettings.of(args.emotion, viseme_set=args.viseme_set, coarticulation=args.coarticulation,
+                               fps=args.fps, dictionary=args.dictionary, language=args.language,
+                               emotion_fade=args.emotion_fade, **more)
+    except SettingError as exc:
+        raise LipSyncError(f"--{exc.option.replace('_', '-')}: {exc}") from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -160,10 +165,8 @@ def main(argv: list[str] | None = None) -> int:
                 for w in warnings:
                     print(f"warning: {w}", file=sys.stderr)
         t0 = time.perf_counter()
-        result = analyze(args.audio, text, alignment=args.alignment, viseme_set=args.viseme_set,
-                         emotion=args.emotion, coarticulation_model=args.coarticulation, fps=args.fps,
-                         dictionary=args.dictionary, settings=AlignSettings(workers=args.workers),
-                         emotion_fade=args.emotion_fade, transcript_path=args.transcript, language=args.language)
+        settings = _line_settings(args, align=AlignSettings(workers=args.workers))
+        result = analyze(args.audio, text, settings, alignment=args.alignment, transcript_path=args.transcript)
         result.notes[:0] = warnings
         for w in result.warnings:
             print(f"warning: {w}", file=sys.stderr)
@@ -253,10 +256,9 @@ def _batch(args) -> int:
     from . import batch
 
     formats = tuple(f for f in ("json", "csv") if getattr(args, f)) or ("json",)
-    defaults = batch.Defaults(args.emotion, args.viseme_set, args.fps, args.coarticulation, args.dictionary,
-                              args.emotion_fade, args.language)
     try:
         _check_options(args)
+        defaults = _line_settings(args)
         report = batch.run(args.manifest, defaults, formats=formats, out_dir=args.out, workers=args.workers,
                            force=args.force, scheduler=args.scheduler, cluster_timeout=args.cluster_timeout)
     except LipSyncError as exc:

@@ -36,11 +36,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import smoothing
+from .errors import LipSyncError
 from .pauses import settings as timing_settings
 from .language.phonemes import SILENCE, phone_class
 from .presets import Preset
 
+#: The coarticulation models.
+MODELS = ("dominance", "rules")
 CLOSURE_CLASSES = ("bilabial", "labiodental")
+
+
+def check_model(model: str) -> str:
+    """``model`` if it names a coarticulation model, else a clear error."""
+    if model not in MODELS:
+        raise LipSyncError(f"unknown coarticulation model {model!r}: use {' or '.join(MODELS)}")
+    return model
 
 
 @dataclass

@@ -38,6 +38,16 @@ class ImportFormatError(LipSyncError):
     """An alignment file to import is malformed."""
 
 
+class SettingError(LipSyncError):
+    """A line's setting has a value it cannot take (see :mod:`.settings`);
+    ``option`` names the setting (``emotion_fade``), so a program can name
+    its own option for it (``--emotion-fade``)."""
+
+    def __init__(self, option: str, message: str):
+        self.option = option
+        super().__init__(message)
+
+
 class PresetError(LipSyncError):
     """A preset or viseme-set file is malformed; the message names the field."""
 

@@ -8,7 +8,8 @@ which lives in its own module and is callable on its own:
   (:mod:`.prosody`, :mod:`.arousal`);
 * the transcript's words aligned to the audio (:mod:`.alignment`), or an
   alignment imported from another tool (:mod:`.importers`);
-* the emotion over the line: its preset, inline tags and markers
+* the emotion over the line: its preset (one of the line's
+  :class:`.settings.LineSettings`), inline tags and markers
   (:mod:`.presets`, :mod:`.emotion_track`);
 * the curves (:mod:`.render`), returned as a :class:`.output.Result`.
 """
@@ -29,11 +30,11 @@ from .alignment.parallel import Background
 from .alignment.recognize import recognize
 from .audio import Audio
 from .errors import AudioError, LipSyncError
-from .framerate import parse_fps
 from .importers import END_TOLERANCE, read_alignment
 from .language import Lexicon, resolve_language
 from .output import Result
-from .render import check_model, render, viseme_set_for
+from .render import render
+from .settings import LineSettings
 
 #: Shorter audio cannot hold a spoken word (s).
 MIN_SPEECH = 0.1
@@ -105,58 +106,48 @@ def _align(snd: Audio, text: str | None, lang, dictionary: str | None, settings:
     return align_audio(snd, text, Lexicon.with_user_file(dictionary, lang), settings, progress)
 
 
-def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
+def analyze(audio: str | os.PathLike | Audio, text: str | None = None, settings: LineSettings | None = None, *,
             alignment: Alignment | str | os.PathLike | None = None,
-            viseme_set: str | None = None, emotion: str | os.PathLike | presets.Preset | dict = "neutral",
-            coarticulation_model: str = "dominance", fps=30, dictionary: str | None = None,
-            settings: AlignSettings | None = None,
             progress: Callable[[str, float], None] | None = None,
-            emotion_changes: list | None = None, emotion_fade: float = emotion_track.DEFAULT_FADE,
+            emotion_changes: list | None = None,
             emotion_lookup: Callable[[str], presets.Preset] | None = None,
-            transcript_path: str | os.PathLike | None = None, language: str | None = None) -> Result:
+            transcript_path: str | os.PathLike | None = None) -> Result:
     """Audio + transcript (or an imported alignment) -> viseme curves.
+
+    ``settings`` say how the line is animated (:class:`.settings.LineSettings`:
+    the emotion, viseme set, coarticulation model, frame rate, language ...;
+    default: ``LineSettings.of()``, neutral at 30 fps).
 
     With no transcript (``text`` None) and no alignment, the words are
     recognised from the audio (:mod:`.alignment.recognize`, marked
     ``recognized``).  A transcript is checked against the take
     (:mod:`.alignment.verify`): its words the audio does not hold are kept
     unspoken (no phones, the mouth at rest), and speech it leaves out is
-    recognised and animated (``Alignment.unscripted``).
-
-    ``emotion`` is a built-in preset name, a preset file path, a
-    :class:`.presets.Preset` or a preset document (a dict, which may name a
-    ``base``); ``viseme_set`` a built-in set name or a file path (default:
-    ``default``, or the set a learned preset was trained with).  ``progress``
-    is called with (step, fraction done).
+    recognised and animated (``Alignment.unscripted``).  ``progress`` is
+    called with (step, fraction done).
 
     Inline tags in ``text`` (``[angry]``) and ``emotion_changes`` ((time s,
     preset name, Preset or dict) pairs, e.g. from timeline markers) change the
-    emotion inside the line, fading over ``emotion_fade`` s; see
+    emotion inside the line, fading over ``settings.emotion_fade`` s; see
     :mod:`.emotion_track`.  ``emotion_lookup`` resolves a tag's name
     (default: :func:`presets.finder`: built-in names, and preset files
     relative to the folder of ``transcript_path``, the file the transcript
-    was read from, whose name errors in a tag also give).  ``language`` is
-    the transcript's language, a code as users write it (``de``, ``deu``,
-    ``pt-BR``, ``zh``; default English; see :mod:`.language.languages`).
+    was read from, whose name errors in a tag also give).
     """
     def report(step, frac):
         if progress:
             progress(step, frac)
 
-    fps = parse_fps(fps)
-    lang = resolve_language(language)
+    settings = settings or LineSettings.of()
+    lang = resolve_language(settings.language)
     background = None
-    preset = presets.load(emotion) if isinstance(emotion, (str, os.PathLike)) else presets.as_preset(emotion)
-    vset = viseme_set_for(preset, viseme_set)
-    check_model(coarticulation_model)
+    vset = settings.visemes
     folder = os.path.dirname(os.path.abspath(transcript_path)) if transcript_path else None
     lookup = _once_per_name(emotion_lookup or presets.finder(folder))
     tags = []
     if text is not None:
         source = f"transcript {os.fspath(transcript_path)}" if transcript_path else "the transcript"
         text, tags = emotion_track.split_tags(text, known=lambda n: bool(lookup(n)), source=source)
-    if emotion_fade < 0 or not np.isfinite(emotion_fade):
-        raise LipSyncError(f"the emotion fade must be 0 s or more, got {emotion_fade!r}")
     report("decode", 0.0)
     snd = audio if isinstance(audio, Audio) else audio_mod.load(audio)
     voice_model = arousal_mod.load_model()
@@ -166,9 +157,10 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
             raise AudioError(f"{name} is too short to hold speech ({snd.duration:.3f} s; "
                              f"a line needs at least {MIN_SPEECH:.1f} s)")
         report("align", 0.1)
-        background = _voice_beside_alignment(snd, settings, voice_model)
+        background = _voice_beside_alignment(snd, settings.align, voice_model)
         try:
-            al = _align(snd, text, lang, dictionary, settings, lambda f: report("align", 0.1 + 0.7 * f))
+            al = _align(snd, text, lang, settings.dictionary, settings.align,
+                        lambda f: report("align", 0.1 + 0.7 * f))
         except BaseException:
             if background is not None:
                 background.close()
@@ -189,17 +181,15 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, *,
         p = lookup(p) if isinstance(p, str) else presets.as_preset(p)
         changes.append(emotion_track.Change(float(t), p, p.name))
     report("curves", 0.9)
-    r = render(al, tracks, preset, changes, vset, model=coarticulation_model, fps=fps, estimate=voice,
-               fade=emotion_fade, viseme_set=viseme_set)
+    r = render(al, tracks, settings, changes, estimate=voice)
     report("done", 1.0)
     notes = list(snd.notes) + list(al.notes)
     if not r.stats.voiced:
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
     closure = coarticulation.closure_track(r.times, [(p.phone, p.start, p.end) for p in al.phones])
-    label = preset.name or (os.fspath(emotion) if isinstance(emotion, (str, os.PathLike)) else "preset")
-    emotions = emotion_track.timeline(label, changes, emotion_fade)
-    return Result(duration=al.duration, fps=fps, viseme_set=vset, emotion=emotions[0]["emotion"],
-                  model=coarticulation_model, alignment=al, pitch=r.pitch, intensity=r.intensity,
+    emotions = emotion_track.timeline(settings.emotion_label, changes, settings.emotion_fade)
+    return Result(duration=al.duration, fps=settings.fps, viseme_set=vset, emotion=emotions[0]["emotion"],
+                  model=settings.coarticulation, alignment=al, pitch=r.pitch, intensity=r.intensity,
                   weights=r.weights, times=r.times, curves=r.curves, notes=notes, closure=closure,
                   warnings=list(snd.notes) + list(al.warnings), arousal=voice, emotions=emotions,
                   expression=r.expression, language=lang.code)

@@ -59,8 +59,9 @@ from pathlib import Path
 from typing import Any
 from collections.abc import Callable
 
+from . import visemes
 from .datafile import read_object
-from .errors import PresetError
+from .errors import LipSyncError, PresetError
 from .language.phonemes import CLASSES, PHONEMES
 
 DATA = Path(__file__).parent / "data" / "presets"
@@ -302,10 +303,29 @@ class Preset:
         return json.dumps(self.to_dict(), sort_keys=True)
 
 
-def as_preset(preset: Preset | dict, source: str = "preset") -> Preset:
-    """``preset`` as a :class:`Preset`: a preset document (a dict, which may
-    name a ``base``) is resolved and checked."""
-    return preset if isinstance(preset, Preset) else Preset.from_dict(resolve(dict(preset), source), source)
+def as_preset(preset: Preset | dict | str | os.PathLike, source: str = "preset") -> Preset:
+    """``preset`` as a :class:`Preset`: a built-in preset's name or a preset
+    file is loaded (:func:`load`), a preset document (a dict, which may name
+    a ``base``) is resolved and checked.  The one place the engine turns a
+    preset, however given, into a :class:`Preset`."""
+    if isinstance(preset, Preset):
+        return preset
+    if isinstance(preset, (str, os.PathLike)):
+        return load(preset)
+    return Preset.from_dict(resolve(dict(preset), source), source)
+
+
+def viseme_set_for(preset: Preset, viseme_set: str | None = None) -> visemes.VisemeSet:
+    """The viseme set to use: ``viseme_set`` (default: ``default``), unless
+    the preset was learned from animation, whose set and poses it carries."""
+    learned = preset.learned
+    if learned is None:
+        return visemes.load(viseme_set or "default")
+    base = visemes.load(learned.viseme_set)
+    if viseme_set is not None and visemes.load(viseme_set).name != base.name:
+        raise LipSyncError(f"preset {preset.name!r} was learned with the {base.name!r} viseme set; "
+                           f"it cannot drive {viseme_set!r}")
+    return visemes.with_targets(base, learned.targets)
 
 
 def _validate_expression(p: dict, source: str) -> None:

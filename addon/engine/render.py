@@ -22,21 +22,13 @@ import numpy as np
 from . import arousal as arousal_mod
 from . import coarticulation, expression, pauses, prosody, visemes, weights
 from .alignment import Alignment
-from .emotion_track import DEFAULT_FADE, Change, mix
+from .coarticulation import check_model
+from .emotion_track import Change, mix
 from .errors import LipSyncError
 from .framerate import frame_times
 from .language import phone_class
-from .presets import Preset
-
-#: The coarticulation models.
-MODELS = ("dominance", "rules")
-
-
-def check_model(model: str) -> str:
-    """``model`` if it names a coarticulation model, else a clear error."""
-    if model not in MODELS:
-        raise LipSyncError(f"unknown coarticulation model {model!r}: use {' or '.join(MODELS)}")
-    return model
+from .presets import Preset, viseme_set_for
+from .settings import LineSettings
 
 
 def phone_ranges(phones: list[str], vset: visemes.VisemeSet, preset: Preset) -> np.ndarray:
@@ -98,19 +90,6 @@ def curves(alignment: Alignment, pitch: np.ndarray, intensity: np.ndarray, stats
     return w, times, out
 
 
-def viseme_set_for(preset: Preset, viseme_set: str | None = None) -> visemes.VisemeSet:
-    """The viseme set to use: ``viseme_set`` (default: ``default``), unless
-    the preset was learned from animation, whose set and poses it carries."""
-    learned = preset.learned
-    if learned is None:
-        return visemes.load(viseme_set or "default")
-    base = visemes.load(learned.viseme_set)
-    if viseme_set is not None and visemes.load(viseme_set).name != base.name:
-        raise LipSyncError(f"preset {preset.name!r} was learned with the {base.name!r} viseme set; "
-                           f"it cannot drive {viseme_set!r}")
-    return visemes.with_targets(base, learned.targets)
-
-
 @dataclass
 class Rendered:
     """A rendered line: per phoneme its pitch (Hz, NaN where unvoiced),
@@ -127,14 +106,17 @@ class Rendered:
     expression: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-def render(al: Alignment, tracks: prosody.Tracks, base: Preset, changes: list[Change], vset: visemes.VisemeSet,
-           *, model: str, fps: float, estimate: arousal_mod.Estimate | None = None, fade: float = DEFAULT_FADE,
-           viseme_set: str | None = None) -> Rendered:
-    """The line's curves, with the emotion starting as ``base`` and following
-    ``changes`` (see :func:`.emotion_track.mix`); with no change, exactly the
-    base preset's own.  ``estimate`` is the voice's arousal, followed by
-    presets whose ``weights.follow_voice`` is above 0; ``viseme_set`` is the
-    set the user asked for (every preset of the line must agree on it)."""
+def render(al: Alignment, tracks: prosody.Tracks, settings: LineSettings, changes: list[Change] = (), *,
+           estimate: arousal_mod.Estimate | None = None) -> Rendered:
+    """The line's curves, with the emotion starting as ``settings.emotion``
+    and following ``changes`` (see :func:`.emotion_track.mix`, over
+    ``settings.emotion_fade``); with no change, exactly that preset's own.
+    ``estimate`` is the voice's arousal, followed by presets whose
+    ``weights.follow_voice`` is above 0.  Every preset of the line must
+    agree on the viseme set (``settings.viseme_set``, the one the user
+    asked for)."""
+    base, vset, viseme_set = settings.emotion, settings.visemes, settings.viseme_set
+    model, fps, fade = settings.coarticulation, settings.fps, settings.emotion_fade
     starting = [c for c in changes if c.time <= 0]
     if starting:
         base = starting[-1].preset

@@ -44,13 +44,14 @@ def pie(extension):
 
 def _key(scene, obj, pie, emotion, plan=None):
     """Key ``obj`` under ``emotion`` from frame 1 the way a run does; the Summary."""
-    run, presets = _mod("blender.run"), _mod("engine.presets")
+    run, sources = _mod("blender.run"), _mod("blender.sources")
     audio, al = pie
-    clip = _mod("blender.sources").Clip(audio, 1, "pie", PIE)
-    options = run.Options(presets.load(emotion))
-    plan = replace(plan, options=options) if plan is not None else run.plan(scene, obj, clip, PIE_TEXT, options)
-    result = _mod("engine.pipeline").analyze(audio, alignment=al, emotion=options.emotion, fps=FPS,
-                                              viseme_set=plan.viseme_set)
+    if plan is None:
+        line = sources.LineInputs(obj, sources.Clip(audio, 1, "pie", PIE), PIE_TEXT)
+        plan = run.plan(scene, line, run.options(scene, emotion=emotion))
+    else:
+        plan = replace(plan, options=replace(plan.options, line=plan.options.line.replace(emotion=emotion)))
+    result = _mod("engine.pipeline").analyze(audio, settings=plan.options.line, alignment=al)
     return plan, run.key(obj, plan, run.Analysis(result, 0.0))
 
 
@@ -143,6 +144,33 @@ def test_a_rig_without_expression_keys_animates_as_before(empty_scene, pie):
     assert {"AU6", "AU12"} <= set(summary.expression) and summary.no_key == []
     assert {"cheekSquintLeft", "mouthSmileRight"} <= keyed_shape_keys(rpm)
     assert not any(k.startswith("jaw") or k == "mouthClose" for k in keyed_shape_keys(rpm))
+
+
+@pytest.mark.parametrize("head", ["arkit", "vroid"])
+def test_the_keys_written_are_the_engines_channels_and_nothing_else(empty_scene, pie, head):
+    """The Blender layer writes what the engine's keying step gives it
+    (engine/keys.py, tested there): every channel on every frame of the
+    line, a key per frame, and no other shape key; the user's own keys
+    stay out of it."""
+    obj = build_head("Face", HEADS[head][0])
+    conventions = _mod("engine.conventions")
+    face = conventions.expression_match(list(obj.data.shape_keys.key_blocks.keys()), conventions.load_all())
+    # The user's own keys: on a cheek key of the expression's (ARKit), on the eyelids (VRoid).
+    kb = obj.data.shape_keys.key_blocks[sorted(face.mapping["AU6"])[0] if head == "arkit" else "Fcl_EYE_Close"]
+    kb.value = 0.3
+    kb.keyframe_insert("value", frame=20)
+    plan, _summary = _key(empty_scene, obj, pie, "happy")
+    result = _mod("engine.pipeline").analyze(pie[0], settings=plan.options.line, alignment=pie[1])
+    line = _mod("engine.keys").mesh_keys(result, plan.mapping, plan.closure, plan.expression.mapping,
+                                         animated={kb.name})
+    assert line.units and {c.drivers for c in line.channels} >= {("speech",), ("expression",)}
+    assert line.kept == ([kb.name] if head == "arkit" else [])
+    assert keyed_shape_keys(obj) == set(line.names) | {kb.name} and kb.name not in line.names
+    for c in line.channels:
+        frames, values = fcurve_values(obj, c.name)
+        assert np.array_equal(frames, 1 + np.arange(line.frames)), c.name
+        assert np.allclose(values, c.values, atol=1e-6), c.name      # F-curves hold 32-bit floats
+    assert list(fcurve_values(obj, kb.name)[0]) == [20.0]
 
 
 @pytest.fixture(scope="module")

@@ -31,7 +31,7 @@ def test_the_extension_aligns_a_line_in_another_language(extension, code, voice,
     engine = import_module(MODULE + ".engine")
     espeak = import_module(MODULE + ".engine.language.espeak")
     audio = import_module(MODULE + ".engine.audio")
-    result = engine.analyze(_spoken(espeak, audio, said, voice), text, language=code, fps=100)
+    result = engine.analyze(_spoken(espeak, audio, said, voice), text, engine.LineSettings.of(language=code, fps=100))
     doc = result.to_dict()
     assert doc["language"] == code
     assert len(doc["words"]) >= 5 and not any(w["estimated"] for w in doc["words"])
@@ -101,7 +101,7 @@ def test_the_panels_language_drives_generate(scene, tmp_path):
     fcurves = bpy.data.objects["Ada"].data.shape_keys.animation_data.action
     assert fcurves is not None
     run = import_module(MODULE + ".blender.run")
-    assert run.options(scene).language == "de"
+    assert run.options(scene).line.language == "deu"
     # The lips close on the m of Mama and the b of baut and Boot: the MBP key reaches 1 three times or more.
     from conftest import fcurve_values
 

@@ -13,6 +13,7 @@ import os
 import sys
 import time
 import wave
+from dataclasses import replace
 from importlib import import_module
 from types import SimpleNamespace
 
@@ -46,14 +47,13 @@ def _text(name, path):
 
 def _inputs(scene, mesh="Ada", path=PIE):
     """A strip, its transcript in the panel, and what Generate reads from
-    them: (mesh, clip, transcript, options)."""
+    them: (the line's inputs, the options)."""
     strip = add_strip(scene, "line", path, frame=1)
     block = _text("line", path)
     scene.emotive_lipsync.text_block = block
-    sources = _mod("sources")
-    clip = sources.strip_clip(scene, strip)
-    text, _where = sources.transcript(text_block=block)
-    return bpy.data.objects[mesh], clip, text, _mod("operators")._options(bpy.context, "", "", -1.0)
+    inputs = _mod("sources").line_inputs(scene, strip=strip, target=bpy.data.objects[mesh], text_block=block,
+                                         strip_properties=False)
+    return inputs, _mod("run").options(scene)
 
 
 def _curves(obj):
@@ -77,9 +77,9 @@ def _started(job, timeout=30.0):
 # --- the job ----------------------------------------------------------------------
 
 def test_job_writes_the_same_keys_as_the_synchronous_path(scene, jobs):
-    obj, clip, text, options = _inputs(scene)
-    assert len(obj.emotive_lipsync.mapping) == 0  # mapped by the job, as Generate does
-    job = jobs.lipsync_job(scene, obj, clip, text, options).start()
+    inputs, options = _inputs(scene)
+    assert len(inputs.target.emotive_lipsync.mapping) == 0  # mapped by the job, as Generate does
+    job = jobs.lipsync_job(scene, inputs, options).start()
     t0 = time.perf_counter()
     while job.working:
         assert time.perf_counter() - t0 < 120
@@ -129,9 +129,9 @@ def test_cancel_raises_from_the_progress_callback_and_stops_the_work(jobs):
 
 
 def test_cancelled_generate_writes_nothing_and_puts_the_mapping_back(scene, jobs):
-    obj, clip, text, options = _inputs(scene)
-    before = jobs.snapshot(obj.emotive_lipsync)
-    job = _started(jobs.lipsync_job(scene, obj, clip, text, options).start())
+    inputs, options = _inputs(scene)
+    before = jobs.snapshot(inputs.target.emotive_lipsync)
+    job = _started(jobs.lipsync_job(scene, inputs, options).start())
     assert len(bpy.data.objects["Ada"].emotive_lipsync.mapping)  # filled in when the job was made
     job.cancel()
     outcome = job.poll()
@@ -143,7 +143,7 @@ def test_cancelled_generate_writes_nothing_and_puts_the_mapping_back(scene, jobs
     assert jobs.snapshot(ada.emotive_lipsync) == before
     assert len(bpy.data.actions) == 0
     # Another run can start at once.
-    again = jobs.lipsync_job(scene, ada, clip, text, options).start()
+    again = jobs.lipsync_job(scene, inputs, options).start()
     assert again.wait(120).finished and keyed_shape_keys(ada)
 
 
@@ -163,10 +163,10 @@ def test_errors_in_the_thread_are_reported_as_the_panel_reports_them(scene, jobs
         fh.setsampwidth(2)
         fh.setframerate(16000)
         fh.writeframes(np.zeros(32000, dtype=np.int16).tobytes())
-    obj, clip, text, options = _inputs(scene, path=PIE)
-    clip = _mod("sources").file_clip(silent, 1)
-    before = jobs.snapshot(obj.emotive_lipsync)
-    outcome = jobs.lipsync_job(scene, obj, clip, text, options).start().wait(120)
+    inputs, options = _inputs(scene, path=PIE)
+    inputs = replace(inputs, clip=_mod("sources").file_clip(silent, 1))
+    before = jobs.snapshot(inputs.target.emotive_lipsync)
+    outcome = jobs.lipsync_job(scene, inputs, options).start().wait(120)
     assert outcome.state == "failed" and outcome.level == "ERROR"
     assert outcome.message.startswith("the audio holds no speech")
     ada = bpy.data.objects["Ada"]
@@ -176,11 +176,11 @@ def test_errors_in_the_thread_are_reported_as_the_panel_reports_them(scene, jobs
 
 
 def test_a_second_generate_is_refused_while_one_runs(scene, jobs, operator):
-    obj, clip, text, options = _inputs(scene)
-    first = jobs.lipsync_job(scene, obj, clip, text, options).start()
+    inputs, options = _inputs(scene)
+    first = jobs.lipsync_job(scene, inputs, options).start()
     with pytest.raises(jobs.Busy, match=r"^Lip sync 'line' -> Ada is still running: wait for it to finish, "
                                         r"or press Esc to cancel it$"):
-        jobs.lipsync_job(scene, bpy.data.objects["Kit"], clip, text, options)
+        jobs.lipsync_job(scene, replace(inputs, target=bpy.data.objects["Kit"]), options)
     assert _nothing_keyed(bpy.data.objects["Kit"])
     # The operator says so and does not start.
     window = _Window()
@@ -196,8 +196,8 @@ def test_a_second_generate_is_refused_while_one_runs(scene, jobs, operator):
 
 
 def test_mesh_deleted_while_running_is_reported_and_nothing_written(scene, jobs):
-    obj, clip, text, options = _inputs(scene)
-    job = jobs.lipsync_job(scene, obj, clip, text, options).start()
+    inputs, options = _inputs(scene)
+    job = jobs.lipsync_job(scene, inputs, options).start()
     bpy.data.objects.remove(bpy.data.objects["Ada"])
     outcome = job.wait(120)
     assert outcome.state == "failed" and outcome.level == "ERROR"
@@ -207,9 +207,9 @@ def test_mesh_deleted_while_running_is_reported_and_nothing_written(scene, jobs)
 
 
 def test_scene_deleted_while_running_is_reported_and_nothing_written(scene, jobs):
-    obj, clip, text, options = _inputs(scene)
+    inputs, options = _inputs(scene)
     bpy.data.scenes.new("Other")
-    job = jobs.lipsync_job(scene, obj, clip, text, options).start()
+    job = jobs.lipsync_job(scene, inputs, options).start()
     name = scene.name
     bpy.data.scenes.remove(scene)
     outcome = job.wait(120)
@@ -221,8 +221,8 @@ def test_scene_deleted_while_running_is_reported_and_nothing_written(scene, jobs
 
 
 def test_mesh_losing_its_shape_keys_while_running_writes_nothing(scene, jobs):
-    obj, clip, text, options = _inputs(scene)
-    job = jobs.lipsync_job(scene, obj, clip, text, options).start()
+    inputs, options = _inputs(scene)
+    job = jobs.lipsync_job(scene, inputs, options).start()
     ada = bpy.data.objects["Ada"]
     ada.shape_key_remove(ada.data.shape_keys.key_blocks["MBP"])
     outcome = job.wait(120)
@@ -233,9 +233,9 @@ def test_mesh_losing_its_shape_keys_while_running_writes_nothing(scene, jobs):
 
 def test_keys_from_a_job_are_one_undo_step(scene, jobs):
     assert "UNDO" in _mod("operators").LIPSYNC_OT_generate.bl_options
-    obj, clip, text, options = _inputs(scene)
+    inputs, options = _inputs(scene)
     bpy.ops.ed.undo_push(message="before lip sync")
-    assert jobs.lipsync_job(scene, obj, clip, text, options).start().wait(120).finished
+    assert jobs.lipsync_job(scene, inputs, options).start().wait(120).finished
     keyed = _curves(bpy.data.objects["Ada"])
     # What Blender does when the modal operator returns FINISHED (it has UNDO).
     bpy.ops.ed.undo_push(message=_mod("operators").LIPSYNC_OT_generate.bl_label)
@@ -304,8 +304,8 @@ def operator(jobs):
 
 def test_modal_operator_shows_progress_and_finishes_with_the_keys(scene, jobs, operator):
     window = _Window()
-    obj, clip, text, options = _inputs(scene)
-    job = jobs.lipsync_job(scene, obj, clip, text, options)
+    inputs, options = _inputs(scene)
+    job = jobs.lipsync_job(scene, inputs, options)
     assert operator.run_modal(window.context, job) == {"RUNNING_MODAL"}
     assert window.calls == ["timer_add", "progress_begin", "handler_add"]
     assert operator.modal(window.context, _event("MOUSEMOVE")) == {"PASS_THROUGH"}  # Blender stays usable
@@ -327,8 +327,8 @@ def test_modal_operator_shows_progress_and_finishes_with_the_keys(scene, jobs, o
 
 def test_esc_cancels_the_modal_operator(scene, jobs, operator):
     window = _Window()
-    obj, clip, text, options = _inputs(scene)
-    job = jobs.lipsync_job(scene, obj, clip, text, options)
+    inputs, options = _inputs(scene)
+    job = jobs.lipsync_job(scene, inputs, options)
     assert operator.run_modal(window.context, job) == {"RUNNING_MODAL"}
     assert operator.modal(window.context, _event("ESC", "RELEASE")) == {"PASS_THROUGH"}
     assert operator.modal(window.context, _event("ESC", "PRESS")) == {"CANCELLED"}
@@ -342,8 +342,8 @@ def test_esc_cancels_the_modal_operator(scene, jobs, operator):
 
 def test_operator_dropped_by_blender_cancels_its_job(scene, jobs, operator):
     window = _Window()
-    obj, clip, text, options = _inputs(scene)
-    job = jobs.lipsync_job(scene, obj, clip, text, options)
+    inputs, options = _inputs(scene)
+    job = jobs.lipsync_job(scene, inputs, options)
     operator.run_modal(window.context, job)
     operator.cancel(window.context)  # Blender opens another file
     assert job.poll().state == "cancelled" and window.status[-1] is None
@@ -425,9 +425,10 @@ def test_a_line_over_ten_seconds_is_aligned_in_pieces_from_the_jobs_thread(scene
     cuts = []
     choose = pieces._choose_cuts
     monkeypatch.setattr(pieces, "_choose_cuts", lambda *a: cuts.append(choose(*a)) or cuts[-1])
-    obj, clip, text, options = _inputs(scene, path=line)
+    inputs, options = _inputs(scene, path=line)
+    clip = inputs.clip
     assert clip.audio.duration > 10.0
-    outcome = jobs.lipsync_job(scene, obj, clip, text, options).start().wait(120)
+    outcome = jobs.lipsync_job(scene, inputs, options).start().wait(120)
     assert outcome is not None and outcome.finished, outcome
     assert len(cuts) == 1 and cuts[0], "the line was not cut into pieces"
     assert "estimated" not in outcome.message

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
 import re
 from importlib import import_module
 
@@ -129,6 +130,39 @@ def test_loading_a_bad_preset_says_what_is_wrong_and_changes_nothing(scene, file
     assert scene.emotive_lipsync.emotion == "sad"
 
 
+def test_a_missing_or_unreadable_preset_file_is_named_and_nothing_changes(scene, tmp_path, monkeypatch):
+    assert bpy.ops.emotive_lipsync.preset_load(name="sad") == {"FINISHED"}
+    missing = tmp_path / "gone" / "mood.json"
+    assert _refused(scene, "preset_load", name=str(missing)) == f"the preset file {missing} does not exist"
+    # Files this user may not read (simulated: the tests may run as root, who reads everything).
+    locked, hidden = tmp_path / "locked.json", tmp_path / "private" / "mood.json"
+    locked.write_text('{"gain": 0.5}', encoding="utf-8")
+    read_text, stat = pathlib.Path.read_text, os.stat
+
+    def refuse_read(path, *args, **kwargs):
+        if path == locked:
+            raise PermissionError(13, "Permission denied", str(path))
+        return read_text(path, *args, **kwargs)
+
+    def refuse_look(path, *args, **kwargs):
+        if os.fspath(path) == str(hidden):
+            raise PermissionError(13, "Permission denied", os.fspath(path))
+        return stat(path, *args, **kwargs)
+
+    monkeypatch.setattr(pathlib.Path, "read_text", refuse_read)
+    monkeypatch.setattr(os, "stat", refuse_look)
+    msg = _refused(scene, "preset_load", name=str(locked))
+    assert str(locked) in msg and "cannot be read: Permission denied" in msg, msg
+    msg = _refused(scene, "preset_load", name=str(hidden))
+    assert msg == f"cannot read the preset file {hidden}: Permission denied", msg
+    # A name that is no regular file.
+    pipe = tmp_path / "pipe.json"
+    os.mkfifo(pipe)
+    msg = _refused(scene, "preset_load", name=str(pipe))
+    assert msg == f"{pipe} is not a file but a device, a pipe or a socket: give a .json preset file", msg
+    assert scene.emotive_lipsync.emotion == "sad"
+
+
 SAVE_CASES = [
     ("", "needs a name"),
     ("   ", "needs a name"),
@@ -242,7 +276,7 @@ def test_learned_poses_on_dotted_shape_keys_survive_the_panel(scene, tmp_path):
     with open(os.path.join(_folder(), "dotty copy.json"), encoding="utf-8") as fh:
         saved = json.load(fh)
     assert saved["learned"]["targets"] == targets
-    assert scene.emotive_lipsync.preset().learned.targets == targets
+    assert _mod("userdata").panel_preset(scene.emotive_lipsync).learned.targets == targets
 
 
 def _keys(obj):

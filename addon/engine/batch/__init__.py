@@ -37,24 +37,25 @@ import time
 from dataclasses import dataclass, field, fields
 from collections.abc import Callable, Iterable, Iterator
 
-from .lines import COLUMNS, FORMATS, ROW_COLUMNS, Defaults, Line, Outcome, check_audio_path, line_text, \
-    transcript_file
+from ..settings import LineSettings
+from .lines import COLUMNS, FORMATS, ROW_COLUMNS, SETTING_COLUMNS, Line, Outcome, check_audio_path, line_settings, \
+    line_text, transcript_file
 from .manifest import output_paths, read_manifest
 from .records import CSV_RECORD_SUFFIX, RECORD_SCHEMA, Digests, engine_version, freshness, produced_by, \
     read_record, up_to_date, why_stale
 from .work import analyze_line, one_line_error, warm, work, write_outputs
 
-__all__ = ["COLUMNS", "CSV_RECORD_SUFFIX", "FORMATS", "RECORD_SCHEMA", "ROW_COLUMNS", "Defaults", "Digests", "Line",
-           "Outcome", "Report", "analyze_line", "check_audio_path", "engine_version", "freshness", "line_text",
-           "one_line_error", "output_paths", "produced_by", "read_manifest", "read_record", "run", "run_dask",
-           "run_inline", "run_local", "transcript_file", "up_to_date", "warm", "why_stale", "work",
-           "write_outputs"]
+__all__ = ["COLUMNS", "CSV_RECORD_SUFFIX", "FORMATS", "RECORD_SCHEMA", "ROW_COLUMNS", "SETTING_COLUMNS", "Digests",
+           "Line", "Outcome", "Report", "analyze_line", "check_audio_path", "engine_version", "freshness",
+           "line_settings", "line_text", "one_line_error", "output_paths", "produced_by", "read_manifest",
+           "read_record", "run", "run_dask", "run_inline", "run_local", "transcript_file", "up_to_date", "warm",
+           "why_stale", "work", "write_outputs"]
 
 # ---------------------------------------------------------------------------
 # where the lines run
 
-def run_inline(lines: list[Line], defaults: Defaults,
-               fn: Callable[[Line, Defaults], Outcome] = work) -> Iterator[Outcome]:
+def run_inline(lines: list[Line], defaults: LineSettings,
+               fn: Callable[[Line, LineSettings], Outcome] = work) -> Iterator[Outcome]:
     """Every line in this process, in order (Blender runs its lines so)."""
     for line in lines:
         yield fn(line, defaults)
@@ -64,7 +65,7 @@ def _pool_init(dictionary):
     warm(dictionary)
 
 
-def run_local(lines: list[Line], defaults: Defaults, workers: int = 0) -> Iterator[Outcome]:
+def run_local(lines: list[Line], defaults: LineSettings, workers: int = 0) -> Iterator[Outcome]:
     """The lines on a pool of ``workers`` processes (0: one per core), each
     loading the models once; outcomes come in the order lines finish.  A
     worker that dies (a crash in a native library) is replaced and its lines
@@ -102,7 +103,7 @@ def run_local(lines: list[Line], defaults: Defaults, workers: int = 0) -> Iterat
         todo.sort(key=lambda ln: ln.number)
 
 
-def run_dask(lines: list[Line], defaults: Defaults, scheduler, timeout: float = 60.0) -> Iterator[Outcome]:
+def run_dask(lines: list[Line], defaults: LineSettings, scheduler, timeout: float = 60.0) -> Iterator[Outcome]:
     """The lines on a Dask distributed cluster (``scheduler``: its address,
     or a ``distributed.Client``) whose machines need the engine's packages
     but not this one: see :mod:`.cluster`.  Outcomes come as lines finish;
@@ -187,18 +188,20 @@ def _progress_bar(total: int, initial: int, enabled: bool | None):
                 smoothing=0.05)
 
 
-def run(manifest: str | os.PathLike, defaults: Defaults | None = None, *, formats=("json",),
+def run(manifest: str | os.PathLike, defaults: LineSettings | None = None, *, formats=("json",),
         out_dir: str | None = None, workers: int = 0, force: bool = False, scheduler=None,
         cluster_timeout: float = 60.0, progress: bool | None = None,
         on_outcome: Callable[[Outcome], None] | None = None) -> Report:
-    """Lip-sync every line of ``manifest`` and write the outputs.
+    """Lip-sync every line of ``manifest`` and write the outputs, each line
+    with ``defaults`` (default: ``LineSettings.of()``) where it names no
+    setting of its own (:func:`line_settings`).
 
     Up-to-date lines are skipped unless ``force``; ``scheduler`` (an address
     or a ``distributed.Client``) runs the lines on a Dask cluster (which
     must take them within ``cluster_timeout`` seconds), else ``workers``
     processes here (1: this process).  ``on_outcome`` is called
     with each line's outcome as it arrives."""
-    defaults = defaults or Defaults()
+    defaults = defaults or LineSettings.of()
     t0 = time.perf_counter()
     lines = read_manifest(manifest, formats, out_dir)
     report = Report(str(manifest))

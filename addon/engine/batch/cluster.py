@@ -42,7 +42,8 @@ from pathlib import Path
 from collections.abc import Iterator
 
 from ..errors import LipSyncError
-from .lines import Defaults, Line, Outcome
+from ..settings import LineSettings
+from .lines import Line, Outcome
 from .records import engine_version
 from .work import one_line_error, warm, work
 
@@ -227,16 +228,17 @@ def _check(expected: dict, dictionary: str | None) -> str | None:
 
 
 def worker_line(line: dict, defaults: dict, expected: dict) -> dict:
-    """Lip-sync one line (its :class:`~.lines.Line` fields) here; returns
-    plain data: status, error, seconds and each output's bytes, or
-    ``problem`` when this worker cannot run lines at all."""
+    """Lip-sync one line (its :class:`~.lines.Line` fields) here, with the
+    run's settings (:meth:`.settings.LineSettings.to_dict`); returns plain
+    data: status, error, seconds and each output's bytes, or ``problem``
+    when this worker cannot run lines at all."""
     import tempfile
 
     why = worker_check(expected, defaults.get("dictionary"))
     if why:
         return {"problem": why}
     ln = Line(**line)
-    out = work(ln, Defaults(**defaults))
+    out = work(ln, LineSettings.from_dict(defaults))
     rendered = {}
     if out.status == "ok":
         if "json" in ln.outputs:
@@ -412,7 +414,7 @@ def _run(client, address, lines, defaults, deadline, timeout) -> Iterator:
     pending_probes = _wait_for_probes(probes, address, left, timeout)
 
     futures = client.map(run_line, [asdict(ln) for ln in lines], name=name, files=files, expected=here,
-                         defaults=asdict(defaults), key=[f"lipsync-line-{token}-{ln.number}" for ln in lines],
+                         defaults=defaults.to_dict(), key=[f"lipsync-line-{token}-{ln.number}" for ln in lines],
                          pure=False)
     by_key = {fut.key: ln for fut, ln in zip(futures, lines)}
     finished = as_completed(futures, loop=client.loop, with_results=True, raise_errors=False)

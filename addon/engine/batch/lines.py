@@ -1,17 +1,18 @@
-"""A batch's lines: what each asks for (:class:`Line`, with the run's
-:class:`Defaults`), what became of it (:class:`Outcome`), and the inputs a
-line names: its audio, and its words (:func:`line_text`) from the file
-:func:`transcript_file` names."""
+"""A batch's lines: what each asks for (:class:`Line`; :func:`line_settings`,
+the run's settings with the line's own), what became of it
+(:class:`Outcome`), and the inputs a line names: its audio, and its words
+(:func:`line_text`) from the file :func:`transcript_file` names."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..emotion_track import DEFAULT_FADE
 from ..errors import AudioError
 from ..language.text import read_text_file
+from ..settings import LineSettings
 
 #: Manifest columns this module reads; Blender's command also reads the last three.
 COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", "fps", "output", "language",
@@ -19,19 +20,8 @@ COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", 
 FORMATS = ("json", "csv")
 #: The columns that shape a line's outputs, kept in the record of what made them.
 ROW_COLUMNS = COLUMNS[:9]
-
-
-@dataclass
-class Defaults:
-    """What a line does not say for itself."""
-
-    emotion: str = "neutral"
-    viseme_set: str | None = None
-    fps: str = "30"
-    coarticulation: str = "dominance"
-    dictionary: str | None = None
-    emotion_fade: float = DEFAULT_FADE
-    language: str = "en"
+#: The columns that are a line's own settings, overriding the run's (:func:`line_settings`).
+SETTING_COLUMNS = ("emotion", "viseme_set", "fps", "language")
 
 
 @dataclass
@@ -79,6 +69,14 @@ class Outcome:
     record: dict | None = None          # what the result was made from, while it is being written
     reason: str | None = None           # why a line whose outputs existed was done again
     beyond: str = ""                    # how far the take strayed from its script (output.beyond_script)
+
+
+def line_settings(line: Line, defaults: LineSettings) -> LineSettings:
+    """The settings ``line`` is lip-synced with: the run's ``defaults`` with
+    what the line says for itself (:data:`SETTING_COLUMNS`), aligned on one
+    core (the lines run in parallel)."""
+    own = {k: getattr(line, k) for k in SETTING_COLUMNS if getattr(line, k)}
+    return defaults.replace(**own, align=dataclasses.replace(defaults.align, workers=1))
 
 
 def check_audio_path(path: str | os.PathLike) -> None:

@@ -13,7 +13,8 @@ from dataclasses import fields, is_dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from .lines import Defaults, Line, line_text, transcript_file
+from ..settings import LineSettings
+from .lines import Line, line_text, transcript_file
 
 #: The layout of that record ("produced_by"); a new layout makes every output stale.
 RECORD_SCHEMA = 1
@@ -99,6 +100,7 @@ class Digests:
 
     def __init__(self):
         self._seen: dict[tuple, str] = {}
+        self._given: list[tuple[object, str]] = []    # presets given read, with their digests
 
     def _once(self, key: tuple, make) -> str:
         if key not in self._seen:
@@ -111,6 +113,16 @@ class Digests:
 
         return self._once(("preset", folder, name), lambda: _digest(presets.finder(folder)(name)))
 
+    def given_preset(self, preset) -> str:
+        """The digest of a preset given already read (the run's settings'
+        emotion), taken once for that preset."""
+        for known, digest in self._given:
+            if known is preset:
+                return digest
+        digest = _digest(preset)
+        self._given.append((preset, digest))
+        return digest
+
     def viseme_set(self, name: str) -> str:
         from .. import visemes
 
@@ -120,7 +132,7 @@ class Digests:
         return self._once(("file", os.path.abspath(path)), lambda: _file_sha(path))
 
 
-def produced_by(line: Line, defaults: Defaults, before: dict | None = None,
+def produced_by(line: Line, defaults: LineSettings, before: dict | None = None,
                 digests: Digests | None = None) -> dict:
     """The record of what a line's outputs are made from, and its
     ``fingerprint`` (a hash of all that): the engine (version, data files,
@@ -135,13 +147,13 @@ def produced_by(line: Line, defaults: Defaults, before: dict | None = None,
     digests = digests or Digests()
     now = time.time_ns()
     engine = {"version": engine_version(), "record": RECORD_SCHEMA, "data": _engine_data()}
-    settings = {"emotion": None if line.emotion else defaults.emotion,
+    settings = {"emotion": None if line.emotion else defaults.emotion_name,
                 "viseme_set": None if line.viseme_set else defaults.viseme_set,
-                "fps": None if line.fps else str(defaults.fps),
+                "fps": None if line.fps else defaults.fps_text,
                 "coarticulation": defaults.coarticulation, "emotion_fade": float(defaults.emotion_fade)}
     if (line.language or defaults.language or "en") != "en":     # English lines keep the records they had
         settings["language"] = None if line.language else defaults.language
-    files = {"preset": digests.preset(line.emotion or defaults.emotion),
+    files = {"preset": digests.preset(line.emotion) if line.emotion else digests.given_preset(defaults.emotion),
              "viseme_set": digests.viseme_set(line.viseme_set or defaults.viseme_set or "default")}
     text = line_text(line)
     if text:
@@ -212,7 +224,7 @@ def why_stale(before: dict | None, now: dict) -> str:
     return "preset or viseme set changed"
 
 
-def freshness(line: Line, defaults: Defaults, digests: Digests | None = None) -> tuple[bool, str | None]:
+def freshness(line: Line, defaults: LineSettings, digests: Digests | None = None) -> tuple[bool, str | None]:
     """(whether every output of ``line`` exists and was made from what
     would make it now, why not).  Sets ``line.record`` to the current
     record when it could be made; a line with an output missing is not up
@@ -229,7 +241,7 @@ def freshness(line: Line, defaults: Defaults, digests: Digests | None = None) ->
     return (False, why_stale(stale[0], line.record)) if stale else (True, None)
 
 
-def up_to_date(line: Line, defaults: Defaults | None = None) -> bool:
+def up_to_date(line: Line, defaults: LineSettings | None = None) -> bool:
     """True when every output exists and was made from the same files and
     settings (see :func:`produced_by`)."""
-    return freshness(line, defaults or Defaults())[0]
+    return freshness(line, defaults or LineSettings.of())[0]

@@ -10,7 +10,8 @@ import time
 from collections.abc import Callable
 
 from ..errors import LipSyncError
-from .lines import Defaults, Line, Outcome, check_audio_path, line_text, transcript_file
+from ..settings import LineSettings
+from .lines import Line, Outcome, check_audio_path, line_settings, line_text, transcript_file
 from .records import CSV_RECORD_SUFFIX, produced_by
 
 _WARM = False
@@ -55,9 +56,9 @@ def one_line_error(exc: BaseException) -> str:
     return " ".join(msg.split()) or type(exc).__name__
 
 
-def analyze_line(line: Line, defaults: Defaults):
-    """Lip-sync one line in this process; returns the pipeline's Result."""
-    from ..alignment import AlignSettings
+def analyze_line(line: Line, defaults: LineSettings):
+    """Lip-sync one line in this process (``defaults``: the run's settings,
+    which the line's own columns override); returns the pipeline's Result."""
     from ..pipeline import analyze
 
     warm(defaults.dictionary)
@@ -66,16 +67,11 @@ def analyze_line(line: Line, defaults: Defaults):
     if line.audio:
         check_audio_path(line.audio)
     text = line_text(line)
-    return analyze(line.audio, text, alignment=line.alignment,
-                   viseme_set=line.viseme_set or defaults.viseme_set,
-                   emotion=line.emotion or defaults.emotion, coarticulation_model=defaults.coarticulation,
-                   fps=line.fps or defaults.fps, dictionary=defaults.dictionary,
-                   emotion_fade=defaults.emotion_fade, transcript_path=transcript_file(line),
-                   language=line.language or defaults.language,
-                   settings=AlignSettings(workers=1))   # lines run in parallel, each on one core
+    return analyze(line.audio, text, line_settings(line, defaults), alignment=line.alignment,
+                   transcript_path=transcript_file(line))
 
 
-def work(line: Line, defaults: Defaults) -> Outcome:
+def work(line: Line, defaults: LineSettings) -> Outcome:
     """:func:`analyze_line` that never raises: the Outcome carries the
     Result and the record of what it was made from (taken before the work,
     unless the line brings it), or the reason it failed."""
