@@ -51,6 +51,7 @@ from addon.engine import audio as audio_mod
 from addon.engine.errors import LipSyncError
 from addon.engine.importers import read_textgrid
 from addon.engine.pipeline import analyze
+from addon.engine.settings import LineSettings
 
 #: Pauses between words at least this long (s) cut the MFA monologues into lines.
 PAUSE = 0.2
@@ -198,7 +199,7 @@ def run(line: Line, speed: float) -> Outcome:
     snd = audio_mod.Audio(x, 16000)
     t0 = time.perf_counter()
     try:
-        r = analyze(snd, line.text, language=line.language)
+        r = analyze(snd, line.text, LineSettings.of(language=line.language))
     except LipSyncError as exc:
         return Outcome(line, speed, snd.duration, time.perf_counter() - t0, refused=str(exc))
     took = time.perf_counter() - t0
@@ -243,7 +244,7 @@ def main() -> None:
     args = ap.parse_args()
     speeds = [1.0] if args.quick else args.speeds
     todo = lines(args.only)
-    analyze(audio_mod.Audio(todo[0].samples, 16000), todo[0].text, language=todo[0].language)  # models loaded
+    analyze(audio_mod.Audio(todo[0].samples, 16000), todo[0].text, LineSettings.of(language=todo[0].language))  # models loaded
     outcomes = []
     for speed in speeds:
         for line in todo:
