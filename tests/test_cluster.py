@@ -235,7 +235,7 @@ def test_a_scheduler_with_other_versions_stops_the_batch_in_one_line(cluster, li
     assert r.returncode == 1
     assert r.stderr == (f"error: the Dask scheduler at {address} has cloudpickle 3.0.0 where this machine has "
                         "cloudpickle 3.1.3; the cluster needs this machine's Python and package versions "
-                        "(see the README)\n")
+                        "(see docs/cluster.md)\n")
     assert seconds < 60
     assert not (lines / "res").exists()
 
