@@ -8,6 +8,8 @@
 # earlier one failed; the summary at the end gives the counts per Blender.
 #   ./test.sh                 everything
 #   ./test.sh --engine-only   the engine's tests only (no Blender)
+# With LIPSYNC_SLOW_TESTS=1 the engine's tests also run the guide's long commands
+# (./setup.sh, the build for four platforms, the longer benchmarks: tests/test_docs.py).
 # Without a Python 3.13 the 5.2 and 5.3 tests cannot run: that is reported,
 # and is a failure under CI (CI=true).
 set -euo pipefail

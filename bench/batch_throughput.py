@@ -17,7 +17,7 @@ pool of one worker per core and reports
 * that every line was written and how many words came out estimated.
 
 With ``--cluster`` it then runs the same lines on a Dask cluster of separate
-processes on this machine, started as the README says (``dask scheduler``
+processes on this machine, started as docs/cluster.md says (``dask scheduler``
 and ``dask worker --nworkers N --nthreads 1`` from a folder outside the
 repository, without PYTHONPATH), twice: first with workers that have not
 seen the engine (it is shipped and loaded), then again; it reports lines per

@@ -188,7 +188,7 @@ def test_the_environment_alone_cannot_import_the_engine(cluster):
 
 def test_separate_scheduler_and_workers_run_every_line_as_analyze_does(cluster, lines, tmp_path):
     address = cluster.scheduler()
-    cluster.worker("workers", "--nworkers", "2")          # as the README starts them
+    cluster.worker("workers", "--nworkers", "2")          # as docs/cluster.md starts them
     rows = _manifest(lines, 9)
     r, seconds = _batch_cli(lines / "m.jsonl", "--scheduler", address, "--json", "--csv",
                             "--report", tmp_path / "report.json")
@@ -235,7 +235,7 @@ def test_a_scheduler_with_other_versions_stops_the_batch_in_one_line(cluster, li
     assert r.returncode == 1
     assert r.stderr == (f"error: the Dask scheduler at {address} has cloudpickle 3.0.0 where this machine has "
                         "cloudpickle 3.1.3; the cluster needs this machine's Python and package versions "
-                        "(see the README)\n")
+                        "(see docs/cluster.md)\n")
     assert seconds < 60
     assert not (lines / "res").exists()
 
@@ -364,11 +364,9 @@ def _within(seconds, fn):
         ex.shutdown(wait=False)
 
 
-def test_readme_installs_the_versions_this_environment_pins():
-    """The README's command for cluster machines pins what requirements.txt pins."""
-    readme = (ROOT / "README.md").read_text()
-    section = readme[readme.index("**On a Dask cluster.**"):]
-    command = section.replace("\\\n", " ")
+def test_the_guide_installs_the_versions_this_environment_pins():
+    """The guide's command for cluster machines (docs/cluster.md) pins what requirements.txt pins."""
+    command = (ROOT / "docs" / "cluster.md").read_text().replace("\\\n", " ")
     pip = next(ln for ln in command.splitlines() if "pip install" in ln)
     wanted = dict(re.findall(r"([\w.-]+)==([\w.]+)", pip))
     pinned = dict(re.findall(r"^([\w.-]+)==([\w.]+)", (ROOT / "requirements.txt").read_text(), re.M))

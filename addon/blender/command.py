@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import sys
 
 import bpy
@@ -220,7 +221,9 @@ def execute(argv: list[str]) -> int:
 
     if done and (args.save or args.output):
         if args.output:
-            bpy.ops.wm.save_as_mainfile(filepath=bpy.path.abspath(args.output), copy=False)
+            # A relative path is the current folder's: Blender 4.2 to 4.5 read it against the folder
+            # the process started in, which a script may have left since.
+            bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(bpy.path.abspath(args.output)), copy=False)
             print(f"lipsync: saved {bpy.data.filepath}")
         elif bpy.data.filepath:
             bpy.ops.wm.save_mainfile()

@@ -72,7 +72,7 @@ class LIPSYNC_PG_object(bpy.types.PropertyGroup):
                                  description="How this mesh's keys close the lips on /p b m/ (JSON, from the "
                                              "convention)")
     viseme_set_file: StringProperty(override=_OV, name="Viseme Set File", subtype="FILE_PATH",
-                                    description="A viseme set JSON file (see the README)")
+                                    description="A viseme set JSON file (see docs/presets.md)")
     mapping: CollectionProperty(type=LIPSYNC_PG_mapping_item, override={"LIBRARY_OVERRIDABLE", "USE_INSERTION"})
     mapping_index: IntProperty(override=_OV, name="Active Mapping", default=0)
 

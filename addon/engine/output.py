@@ -2,7 +2,7 @@
 
 :class:`Result` holds everything :func:`.pipeline.analyze` found (the
 alignment, the voice measurements, the curves) and writes it as the JSON
-document the README describes (``schema`` 1) or as a CSV frame table.
+document docs/output.md describes (``schema`` 1) or as a CSV frame table.
 :func:`check_output_path` checks a file can be written before any work.
 """
 

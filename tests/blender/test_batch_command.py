@@ -98,7 +98,7 @@ def test_all_strips_run_through_the_batch_runner(scene, capsys, monkeypatch):
 
 
 def test_usage_errors_exit_with_status_2_and_key_nothing(scene, tmp_path, capsys):
-    """The README's exit statuses: 2 when the options themselves are wrong."""
+    """The exit statuses docs/blender.md gives: 2 when the options themselves are wrong."""
     manifest = tmp_path / "lines.csv"
     manifest.write_text(f"audio,mesh\n{BOB},Ada\n")
     for argv, said in ((["--audio", BOB], "--audio needs --mesh"),

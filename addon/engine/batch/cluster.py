@@ -55,7 +55,7 @@ SCHEDULER_PACKAGES = ("dask", "distributed", "cloudpickle")
 #: What the engine imports from them (by module name).
 MODULES = ("numpy", "parselmouth", "pocketsphinx")
 DEFAULT_TIMEOUT = 60.0
-VERSIONS_HINT = "; the cluster needs this machine's Python and package versions (see the README)"
+VERSIONS_HINT = "; the cluster needs this machine's Python and package versions (see docs/cluster.md)"
 _FROZEN_TIME = (2020, 1, 1, 0, 0, 0)   # zip entries' date: the same files give the same bytes
 
 
