@@ -244,7 +244,9 @@ def main() -> None:
     args = ap.parse_args()
     speeds = [1.0] if args.quick else args.speeds
     todo = lines(args.only)
-    analyze(audio_mod.Audio(todo[0].samples, 16000), todo[0].text, LineSettings.of(language=todo[0].language))  # models loaded
+    first = todo[0]
+    # the models loaded once, as a batch or a Blender session does
+    analyze(audio_mod.Audio(first.samples, 16000), first.text, LineSettings.of(language=first.language))
     outcomes = []
     for speed in speeds:
         for line in todo:

@@ -27,5 +27,6 @@ from .text import Word, describe_skipped, normalize, read_text_file, skipped_wor
 
 __all__ = ["CLASSES", "MANNER", "PHONEMES", "SILENCE", "VOWELS", "Language", "Lexicon", "Pronunciation", "Word",
            "cmudict", "resolve_language", "supported_languages",
-           "describe_skipped", "is_vowel", "normalize", "phone_class", "read_text_file", "skipped_words", "stage_direction_gaps",
+           "describe_skipped", "is_vowel", "normalize", "phone_class", "read_text_file", "skipped_words",
+           "stage_direction_gaps",
            "strip_stress", "to_arpabet"]
