@@ -8,7 +8,8 @@ its ``\\`` continuations joined and its ``# comment`` cut off, or a line of a
 ```` ```console ```` block starting with ``$ `` (the lines after it are its
 output).  A block just after an HTML comment ``<!-- file: NAME -->`` is a
 file the page's commands use (a manifest, a track map), written as NAME
-where they run.
+where they run.  A ```` ```python ```` block is a program, run whole
+(:func:`python_blocks`).
 
 Standard library only: the Blender tests import it on every Blender's
 Python.
@@ -24,6 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 SHELL = ("sh", "bash", "shell")
 CONSOLE = "console"
+PYTHON = ("python", "py")
 _FENCE = re.compile(r"^```(\S*)\s*$")
 _FILE = re.compile(r"^<!--\s*file:\s*(\S+)\s*-->\s*$")
 
@@ -101,6 +103,11 @@ def all_blocks(root: Path = ROOT) -> list[Block]:
 
 def all_commands(root: Path = ROOT) -> list[Command]:
     return [c for b in all_blocks(root) for c in b.commands()]
+
+
+def python_blocks(root: Path = ROOT) -> list[Block]:
+    """The pages' Python programs (```` ```python ```` blocks)."""
+    return [b for b in all_blocks(root) if b.lang in PYTHON]
 
 
 def files(page: str, root: Path = ROOT) -> dict[str, str]:

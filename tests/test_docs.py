@@ -21,6 +21,9 @@ The commands are read from the pages' shell code blocks
   ``tests/blender/test_docs_commands.py`` (there is no ``blender`` binary
   here, only the ``bpy`` module).
 
+A ```` ```python ```` block is a program: it is run whole by the engine's
+Python in such a folder, and must exit with status 0.
+
 A command none of these covers fails :func:`test_commands_run` (it runs,
 and fails, unless its files are known here), so a new command in the docs
 gets a test with it.  The usage synopses (```` ```text ```` blocks of
@@ -286,6 +289,18 @@ def test_commands_run(block, tmp_path):
     box = _box(tmp_path, block.page, commands)
     for command in commands:
         _check(command, _run(command, box))
+
+
+PYTHON_BLOCKS = dc.python_blocks()
+
+
+@pytest.mark.parametrize("block", PYTHON_BLOCKS, ids=[f"{b.page}:{b.line}" for b in PYTHON_BLOCKS])
+def test_python_blocks_run(block, tmp_path):
+    program = "\n".join(block.body) + "\n"
+    box = _box(tmp_path, block.page, [dc.Command(block.page, block.line + 1, program)])
+    (box / "program.py").write_text(program, encoding="utf-8")
+    command = dc.Command(block.page, block.line + 1, ".venv/bin/python program.py")
+    _check(command, _run(command, box))
 
 
 SLOW_COMMANDS = [c for c in COMMANDS if how(c) == "slow"]
