@@ -11,9 +11,18 @@ when absent).
   duration (target: at most 0.05);
 * the curves step alone for 100 s of audio at 30 fps (target: under 50 ms);
 * peak memory of a fresh ``python -m addon analyze`` on a ~100 s clip
-  (target: under 400 MB).
+  (target: under 400 MB);
+* with ``--against CHECKOUT`` (another version of the project, e.g. the one
+  before the checks of a take against its script: ``git worktree add
+  /tmp/before 48cc5ce``), whole ``analyze`` in-process on every English
+  clip with a transcript (bench/common.py ``transcript_clips``, and
+  TIMIT's 61 sentences), each version in a process of its own with its
+  models loaded (as a batch worker or a Blender session has them), the two
+  taking turns clip by clip, best of 3: each clip's time per second of
+  audio in both and their ratio (targets: at most 0.05 and 1.15).
 
     .venv/bin/python bench/speed.py
+    .venv/bin/python bench/speed.py --against /tmp/before --only-against
 """
 
 from __future__ import annotations
@@ -129,5 +138,78 @@ def main():
     print(f"peak memory of analyze on {s2.duration + s3.duration:.0f} s: {peak / 1024:.0f} MB "
           "(largest single process: the main one or an alignment worker; target < 400 MB)")
 
+#: A process timing ``analyze`` for the checkout whose folder is its first argument: it reads
+#: "path\ttranscript file" lines and answers each with the best of 3 wall times.
+_TIMER = """
+import sys, time
+sys.path.insert(0, sys.argv[1])
+from addon.engine import audio as audio_mod
+from addon.engine.pipeline import analyze
+ready = False
+for line in sys.stdin:
+    path, text_path = line.rstrip("\\n").split("\\t")
+    snd, text = audio_mod.load(path), open(text_path, encoding="utf-8").read()
+    if not ready:
+        analyze(snd, text)
+        ready = True
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        analyze(snd, text)
+        times.append(time.perf_counter() - t0)
+    print(min(times), snd.duration, flush=True)
+"""
+
+
+def against(other: str) -> None:
+    """Every English clip with a transcript, analysed in-process by this checkout and by ``other``,
+    taking turns clip by clip."""
+    import os
+    from pathlib import Path
+
+    tmp = Path(tempfile.mkdtemp())
+    clips = [(name, path, text) for name, path, text in __import__("common").transcript_clips()]
+    for wav in sorted((DATA / "timit_nltk").glob("*/*.wav")):
+        clips.append((f"{wav.parent.name}/{wav.stem}", wav, " ".join(wav.with_suffix(".txt").read_text().split()[2:])))
+    timers = {}
+    for label, root in (("this", str(ROOT)), ("other", os.path.abspath(other))):
+        timers[label] = subprocess.Popen([sys.executable, "-c", _TIMER, root],
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=root)
+    print(f"whole analyze in-process, this checkout against {other} (best of 3, taking turns):")
+    print(f"  {'clip':26s} {'audio s':>7s} {'this x rt':>9s} {'other':>7s} {'ratio':>6s}")
+    rows = []
+    for k, (name, path, text) in enumerate(clips):
+        text_path = tmp / f"{k}.txt"
+        text_path.write_text(text, encoding="utf-8")
+        got = {}
+        for label in ("this", "other"):
+            timers[label].stdin.write(f"{path}\t{text_path}\n")
+            timers[label].stdin.flush()
+            seconds, duration = map(float, timers[label].stdout.readline().split())
+            got[label] = seconds
+        rows.append((name, duration, got["this"], got["other"]))
+        print(f"  {name:26s} {duration:7.1f} {got['this'] / duration:9.3f} {got['other'] / duration:7.3f} "
+              f"{got['this'] / got['other']:6.2f}", flush=True)
+    for t in timers.values():
+        t.stdin.close()
+        t.wait()
+    a = np.array([r[1:] for r in rows])
+    seconds, this, that = a[:, 0], a[:, 1], a[:, 2]
+    ratio, rt = this / that, this / seconds
+    print(f"  all {len(rows)} clips: {this.sum() / seconds.sum():.3f} x rt against {that.sum() / seconds.sum():.3f} "
+          f"(ratio {this.sum() / that.sum():.2f}); median ratio {np.median(ratio):.2f}, highest {ratio.max():.2f} "
+          f"({rows[int(ratio.argmax())][0]}); highest x rt {rt.max():.3f} ({rows[int(rt.argmax())][0]})")
+
+
 if __name__ == "__main__":
-    main()
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--against", help="another checkout of the project, timed beside this one clip by clip")
+    ap.add_argument("--only-against", action="store_true", help="only that comparison")
+    args = ap.parse_args()
+    if not args.only_against:
+        main()
+    if args.against:
+        need_data()
+        against(args.against)
