@@ -23,6 +23,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from ..audio import Audio
 from .fillers import base_token, is_hesitation
 from .loops import loop_pass, loops
@@ -34,8 +36,11 @@ from .verify import edit_path, words_heard
 MIN_LOOP = 0.4
 #: Clips longer than this (s) are not searched this way (one pass holds the whole clip).
 MAX_CLIP = 90.0
-#: A phone this long (s) in a word at either edge of the first alignment shows the word pulled.
+#: A phone this long (s) in a word at either edge of the first alignment shows the word pulled ...
 STRETCHED = 0.5
+#: ... when it is also this many times the line's median phone (very slow speech, 0.2 s a phone and
+#: more, holds phones over 0.5 s of its own; a line's phones run 0.06-0.1 s at a usual pace).
+SLOWER_THAN = 5.0
 #: The words at either edge that are looked at for it.
 EDGE_WORDS = 3
 #: An edge moves only by more than this (s).
@@ -85,11 +90,15 @@ def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],
 
 
 def _stretched(al: Alignment) -> list[tuple[int, AlignedPhone]]:
-    """(index in ``al.script``, phone) for the phones :data:`STRETCHED` s long or more in the
-    transcript's words (hesitations, often drawn out, left out)."""
+    """(index in ``al.script``, phone) for the phones :data:`STRETCHED` s long or more, and
+    :data:`SLOWER_THAN` times the line's median phone, in the transcript's words (hesitations,
+    often drawn out, left out): a line said slowly all through holds long phones of its own."""
     script = al.script
-    return [(k, p) for k, p in al.script_phones()
-            if p.end - p.start >= STRETCHED and not is_hesitation(script[k].text)]
+    phones = al.script_phones()
+    if not phones:
+        return []
+    longest = max(STRETCHED, SLOWER_THAN * float(np.median([p.end - p.start for _, p in phones])))
+    return [(k, p) for k, p in phones if p.end - p.start >= longest and not is_hesitation(script[k].text)]
 
 
 def _pulled(snd: Audio, al: Alignment, settings: AlignSettings) -> bool:
