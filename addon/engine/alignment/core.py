@@ -111,7 +111,9 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     phones: list[AlignedPhone] = []
     for wi in range(n):
         ph = _clean(result[wi])
-        words.append(AlignedWord(texts[wi], ph[0][1], ph[-1][2], prons[wi], sources[wi], est[wi],
+        said = [p for p, _, _ in ph]     # a pronunciation of the word's own the aligner chose by the sound
+        chosen = said if not est[wi] and said in getattr(prons[wi], "variants", []) else prons[wi]
+        words.append(AlignedWord(texts[wi], ph[0][1], ph[-1][2], list(chosen), sources[wi], est[wi],
                                  fit=None if est[wi] else fit[wi]))
         for p, a, b in ph:
             phones.append(AlignedPhone(p, a, b, wi, est[wi]))

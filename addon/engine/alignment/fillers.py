@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .estimate import _estimate
-from .model import word_frames
+from .model import Variants, word_frames
 
 #: The acoustic model's filler phone for speech sounds that are not words.
 FILLER = "+SPN+"
@@ -42,16 +42,19 @@ def is_hesitation(text: str) -> bool:
 
 
 def mark(prons: Sequence[Sequence[str]], texts: Sequence[str]) -> list[list[str]]:
-    """The phones of every word, those of hesitations as :class:`Hesitation`."""
-    return [Hesitation(p) if is_hesitation(t) else list(p) for p, t in zip(prons, texts)]
+    """The phones of every word, those of hesitations as :class:`Hesitation`
+    (a word's other pronunciations, :class:`.model.Variants`, are kept)."""
+    return [Hesitation(p) if is_hesitation(t) else p if isinstance(p, Variants) else list(p)
+            for p, t in zip(prons, texts)]
 
 
 def dictionary_lines(token: str, phones: Sequence[str], fillers: bool = False) -> list[str]:
-    """The decoder's dictionary entries of one word (with ``fillers``, a
-    hesitation's filler pronunciation too)."""
+    """The decoder's dictionary entries of one word: its phones, its other
+    pronunciations (:class:`.model.Variants`), and with ``fillers`` a
+    hesitation's filler pronunciation too."""
     lines = [f"{token} {' '.join(phones)}"]
-    if fillers and isinstance(phones, Hesitation):
-        lines.append(f"{token}(2) {FILLER}")
+    others = ([[FILLER]] if fillers and isinstance(phones, Hesitation) else []) + getattr(phones, "variants", [])
+    lines += [f"{token}({k}) {' '.join(v)}" for k, v in enumerate(others, 2)]
     return lines
 
 

@@ -33,6 +33,18 @@ def word_frames(kind: str, payload) -> list[tuple[int, int]]:
     return payload if kind == "words" else [(ph[0][1], ph[-1][2]) for ph in payload]
 
 
+class Variants(list):
+    """A word's phones, with the other pronunciations (``variants``, lists of
+    phones) the aligner may choose between by the sound
+    (:mod:`..language.assimilation`), and the phones each of them shows
+    (``shown``, where the aligner is given stand-ins)."""
+
+    def __init__(self, phones, variants=(), shown=None):
+        super().__init__(phones)
+        self.variants = [list(v) for v in variants]
+        self.shown = [list(v) for v in (shown if shown is not None else variants)]
+
+
 def median_fit(words, leave=()) -> float | None:
     """The median fit (:attr:`AlignedWord.fit`) of the ``words`` aligned
     acoustically, but those at the indices ``leave``; None if none was.  A

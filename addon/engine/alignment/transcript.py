@@ -17,10 +17,11 @@ from concurrent.futures.process import BrokenProcessPool
 from .. import audio as audio_mod
 from ..audio import Audio
 from ..errors import AlignmentError, LipSyncError
-from ..language import Lexicon, Pronunciation, describe_skipped, normalize, skipped_words, stage_direction_gaps
+from ..language import (Lexicon, Pronunciation, assimilation, describe_skipped, normalize, skipped_words,
+                        stage_direction_gaps)
 from .core import align, check_transcript_matches
 from .edges import CUT_ROUNDS, edges, heard_in, left_out, said_at_the_end
-from .model import AlignSettings, Alignment
+from .model import AlignSettings, Alignment, Variants
 from . import tempo
 from .room import lay_out, room
 from .verify import verify
@@ -37,7 +38,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     words = normalize(text, lexicon.language)
     directions = stage_direction_gaps(text, lexicon.language)
     prons = [lexicon.pronounce(w) for w in words]
-    phones = [p.aligned or p.phones for p in prons]
+    phones = said_as(prons, lexicon.language.code)
 
     def run(clip: Audio, report=None, stand_in: dict[int, list[str]] | None = None) -> Alignment:
         """The transcript aligned to ``clip``; speech too fast for the aligner's frames on a slowed
@@ -107,7 +108,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
             # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
             al = again(clip, stand_in, cut) or al
     check_transcript_matches(al, judge_fit=english)
-    _show(al, prons)
+    _show(al, prons, phones)
     skipped = skipped_words(text, lexicon.language)
     if skipped:
         n = len(skipped)
@@ -118,20 +119,42 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     return al
 
 
-def _show(al: Alignment, prons: list[Pronunciation]) -> None:
+#: Pronunciations the user wrote out (inline, in IPA) are said as written: no other is offered.
+AS_WRITTEN = ("inline", "ipa")
+
+
+def said_as(prons: list[Pronunciation], language: str) -> list[list[str]]:
+    """The phones the aligner is given for each word (its stand-ins for a
+    word read from IPA), with the other pronunciations running speech gives
+    it (:func:`..language.assimilation.variants`), which the aligner chooses
+    between by the sound."""
+    phones = [p.aligned or p.phones for p in prons]
+    found = assimilation.variants(phones, language, [p.phones for p in prons])
+    return [Variants(ph, [a for a, _ in v], [s for _, s in v]) if v and p.source not in AS_WRITTEN else ph
+            for ph, p, v in zip(phones, prons, found)]
+
+
+def _show(al: Alignment, prons: list[Pronunciation], phones: list[list[str]]) -> None:
     """Words aligned by stand-in phones (:attr:`.Pronunciation.aligned`)
-    get back the phones their mouth shows."""
+    get back the phones their mouth shows (those of the pronunciation the
+    aligner chose among ``phones``' variants, :func:`said_as`)."""
     by_word: dict[int, list] = {}
     for p in al.phones:
         by_word.setdefault(p.word_index, []).append(p)
-    for wi, pron in enumerate(prons):
+    where = [wi for wi, w in enumerate(al.words) if not w.recognized]      # the transcript's words among all
+    for k, pron in enumerate(prons):
         if not pron.aligned:
             continue
-        al.words[wi].phones = list(pron.phones)
+        wi = where[k]
         got = by_word.get(wi, [])
-        if [p.phone for p in got] == pron.aligned:
-            for p, shown in zip(got, pron.phones):
-                p.phone = shown
+        aligned, shown = pron.aligned, pron.phones
+        for a, s in zip(getattr(phones[k], "variants", []), getattr(phones[k], "shown", [])):
+            if [p.phone for p in got] == a:
+                aligned, shown = a, s
+        al.words[wi].phones = list(shown) if al.words[wi].spoken else []
+        if [p.phone for p in got] == aligned:
+            for p, s in zip(got, shown):
+                p.phone = s
         else:   # the aligner changed the word's phones (a stretch placed by estimate): undo each stand-in alone
             back = {a: s for a, s in zip(pron.aligned, pron.phones) if a != s}
             for p in got:
