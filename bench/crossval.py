@@ -8,15 +8,17 @@ chosen on, such a table flatters itself; this bench measures by how much, and wh
 carries over best to speakers the tuning never saw.  It changes nothing in the engine.
 
 Reads ``../shared/data/timit_nltk`` (skips cleanly without it): 61 sentences, 8 speakers, 2 in each
-of the dialect regions 1-4.  Each sentence is aligned once (``align_audio``, as ``bench/timit.py``
-does) with no boundary correction at all (``core.shift_boundaries`` is replaced for the run by a
-recorder: no offsets, no /t/ rule), and its hand phones are matched to the aligned ones as
-``bench/timit.py`` matches them.  Every boundary is kept with its class pair and the hand start it is
-matched to.  The engine's correction is then re-applied offline under any table (the same steps as
-``shift_boundaries``: the /t/ rule, ``min_phone``, the voice onset after silence; many tables at
-once, with numpy), so a table is scored without aligning again.  The first lines say how many of the
-1,959 starts differ from ``shift_boundaries`` itself under timing.json's table (none), and that
-table's figures, which are bench/timit.py's.
+of the dialect regions 1-4.  Each sentence is aligned once, as the engine aligns it (``align_audio``,
+as ``bench/timit.py`` does), with the engine's ``shift_boundaries`` wrapped for the run by a recorder
+that keeps every boundary as it was before the correction (no offsets, no /t/ rule), with the audio
+it was corrected on.  The hand phones are matched to the aligned ones as ``bench/timit.py`` matches
+them, and each scored start is kept with its class pair and its hand start.  The correction is then
+re-applied offline under any table (the same steps as ``shift_boundaries``: the /t/ rule,
+``min_phone``, the voice onset after silence; many tables at once, with numpy), so a table is scored
+without aligning again.  The first lines say how many of the 1,959 starts the offline correction
+puts elsewhere than the engine's own run under timing.json's table (none), and that table's figures,
+which are bench/timit.py's.  (The correction stays on during the run: what the aligner does after it,
+a line slowed and aligned again when its phones are crowded, looks at the corrected phones.)
 
 A tuning *procedure* makes a table from some sentences: first one offset for every boundary (the
 default), then per pair of classes seen at least ``n`` times (scored boundaries) an offset on a grid
@@ -63,27 +65,30 @@ from timit import DEV, HELD, match_sets, sentences
 
 from addon.engine import audio as audio_mod
 from addon.engine.alignment import align_audio
-from addon.engine.alignment.boundaries import _unreleased, boundary_class, shift_boundaries, voice_onset
+from addon.engine.alignment.boundaries import _unreleased, boundary_class, voice_onset
 from addon.engine.alignment.estimate import _clean
 from addon.engine.pauses import settings as timing_settings
 
 SPAN = 0.06          # offsets tried: -SPAN .. +SPAN
 
 
-# --- one alignment, without the correction ---------------------------------------------------------
+# --- one alignment, its boundaries before the correction ---------------------------------------
 
 @contextmanager
-def corrections_off():
-    """Alignments made inside run with no boundary correction (the engine's ``shift_boundaries`` is
-    replaced by a recorder); yields the list of (audio, words' phones) it was called with."""
+def recording():
+    """Alignments made inside are recorded as the engine corrects their boundaries: the engine's
+    ``shift_boundaries`` is wrapped for the while; yields the list of (audio, words' phones before
+    the correction, after it, estimated, from IPA) of its calls."""
     from addon.engine.alignment import core
 
     calls: list = []
+    saved = core.shift_boundaries
 
     def record(audio, result, estimated, cfg=None, from_ipa=None, ipa_cfg=None):
-        calls.append((audio, copy.deepcopy(result)))
+        before = copy.deepcopy(result)
+        saved(audio, result, estimated, cfg, from_ipa=from_ipa, ipa_cfg=ipa_cfg)
+        calls.append((audio, before, copy.deepcopy(result), list(estimated), from_ipa))
 
-    saved = core.shift_boundaries
     core.shift_boundaries = record
     try:
         yield calls
@@ -93,41 +98,51 @@ def corrections_off():
 
 @dataclass
 class Line:
-    """One aligned clip, uncorrected, with what scoring needs."""
+    """One aligned clip, its boundaries before the correction, with what scoring needs."""
     name: str
     groups: dict                      # fold keys: speaker, region, language, family ...
-    audio: object
-    words: list                       # per word: [(phone, start, end)] or None
+    audio: object                     # the audio the engine corrected the boundaries on
+    words: list                       # per word: [(phone, start, end)] before the correction, or None
     est: list                         # per word: not to be corrected (estimated, recognised)
     ipa: list                         # per word: read from IPA (boundary_ipa's table)
     refs: list                        # (flat phone index or None, reference start, scored as closure)
-    exact: bool = True                # the recorder saw exactly these phones (same audio, times)
+    shown: list                       # every phone's start as the engine gave it (corrected)
+    exact: bool = True                # False: the phones were moved after the correction (left as given)
+    factor: float = 1.0               # the phones were aligned on a copy slowed this much
+    duration: float = 0.0
     # Filled by prepare():
     a: list = field(default_factory=list)
     fixed: dict = field(default_factory=dict)
     steps: list = field(default_factory=list)
+    keep: float = 0.03
 
 
 def line_from(name, groups, snd, al, calls, refs) -> Line:
-    """The alignment ``al`` of ``snd`` as a :class:`Line`; the audio the engine would correct it on is
-    the one the recorder saw with the same phones (a clip cut at the script's edges is silenced
-    outside them)."""
-    flat = [(p.phone, p.start, p.end) for p in al.phones]
-    audio, exact = snd, False
-    for rec_audio, result in reversed(calls):
-        got = [x for ph in result if ph for x in _clean(ph)]
-        if len(got) == len(flat) and all(p == q and abs(a - c) < 1e-9 and abs(b - d) < 1e-9
-                                         for (p, a, b), (q, c, d) in zip(got, flat)):
-            audio, exact = rec_audio, True
-            break
+    """The alignment ``al`` of ``snd`` (as the engine made it) as a :class:`Line`: the recorded call
+    whose corrected phones are ``al``'s (on its time, or on a slowed copy's: :mod:`.tempo`) gives the
+    phones before the correction, and the audio (a clip cut at the script's edges is silenced outside
+    them) and phones (a word read from IPA is aligned, and corrected, by its stand-in phones, shown by
+    its own) the engine corrected.  None matching (phones laid out again after the correction), the
+    line keeps ``al``'s phones whatever the table."""
+    from addon.engine.alignment import tempo
+
+    flat = [(p.start, p.end) for p in al.phones]
+    shown = [p.start for p in al.phones]
+    for audio, before, after, est, from_ipa in reversed(calls):
+        got = [(a, b) for ph in after if ph for _, a, b in _clean(ph)]
+        if len(before) != len(al.words) or len(got) != len(flat):
+            continue
+        for factor in (1.0, tempo.SLOWER):
+            if all(abs(min(al.duration, a / factor) - c) < 1e-9 and abs(min(al.duration, b / factor) - d) < 1e-9
+                   for (a, b), (c, d) in zip(got, flat)):
+                words = [_clean(ph) if ph else ph for ph in before]
+                ipa = list(from_ipa) if from_ipa is not None else [False] * len(words)
+                return Line(name, groups, audio, words, list(est), ipa, refs, shown, True, factor, al.duration)
     words: list = [None] * len(al.words)
     for p in al.phones:
         words[p.word_index] = (words[p.word_index] or []) + [(p.phone, p.start, p.end)]
-    order = [x for ph in words if ph for x in ph]
-    assert order == flat, f"{name}: phones out of word order"
-    est = [w.estimated or w.recognized for w in al.words]
-    ipa = [w.source in ("ipa", "espeak") for w in al.words]
-    return Line(name, groups, audio, words, est, ipa, refs, exact)
+    est = [True] * len(al.words)
+    return Line(name, groups, snd, words, est, [False] * len(al.words), refs, shown, False, 1.0, al.duration)
 
 
 # --- the engine's correction, offline ------------------------------------------------------------
@@ -176,21 +191,13 @@ def prepare(line: Line, cfg: dict) -> None:
     line.keep = keep
 
 
-def engine_starts(line: Line, cfg: dict, ipa_cfg: dict | None = None) -> list[float]:
-    """Every phone's start as ``shift_boundaries`` itself corrects it (to check :class:`Batch`)."""
-    result = copy.deepcopy(line.words)
-    shift_boundaries(line.audio, result, line.est, cfg, from_ipa=line.ipa if any(line.ipa) else None,
-                     ipa_cfg=ipa_cfg)
-    return [p[1] for ph in result if ph for p in _clean(ph)]
-
-
 class Batch:
     """Many lines corrected at once, under many tables at once (one per row): the boundaries of
     every line are taken in turn, the k-th boundary of all lines together, as ``shift_boundaries``
     takes them one line at a time."""
 
-    def __init__(self, lines: list[Line]):
-        self.lines = lines
+    def __init__(self, lines: list[Line], decimals: int | None = 4):
+        self.lines, self.decimals = lines, decimals
         self.pairs = sorted({st[1] for line in lines for st in line.steps})
         pid = {p: k for k, p in enumerate(self.pairs)}
         a, fixed, ranks = [], {}, defaultdict(list)
@@ -238,11 +245,22 @@ class Batch:
             s[:, idx] = np.where((t - a) * off > 0, t, a)
         return s
 
-    def errors(self, en: np.ndarray, ipa: np.ndarray) -> np.ndarray:
-        """|start error| (s, rounded to 0.1 ms as bench/timit.py rounds it; inf where no aligned phone
-        was matched) of every reference phone, rows x references."""
+    def shown(self, en: np.ndarray, ipa: np.ndarray) -> np.ndarray:
+        """:meth:`starts` on each line's own time (a line aligned on a slowed copy scaled back, as
+        ``tempo.scaled`` does)."""
         s = self.starts(en, ipa)
-        err = np.abs(np.round(s[:, np.maximum(self.ridx, 0)] - self.rstart, 4))
+        for line, base in zip(self.lines, self.first):
+            if line.factor != 1.0:
+                s[:, base:base + len(line.a)] = np.minimum(line.duration, s[:, base:base + len(line.a)] / line.factor)
+        return s
+
+    def errors(self, en: np.ndarray, ipa: np.ndarray) -> np.ndarray:
+        """|start error| (s, rounded to ``decimals`` as bench/timit.py rounds it to 0.1 ms, or not, as
+        bench/languages.py; inf where no aligned phone was matched) of every reference phone, rows x
+        references."""
+        err = np.abs(self.shown(en, ipa)[:, np.maximum(self.ridx, 0)] - self.rstart)
+        if self.decimals is not None:
+            err = np.round(err, self.decimals)
         err[:, self.ridx < 0] = np.inf
         return err
 
@@ -306,20 +324,23 @@ def pair_counts(batch: Batch, train: np.ndarray, ipa: bool = False) -> Counter:
 
 
 def tune(batch: Batch, train: np.ndarray, proc: Procedure, fixed: tuple = ({}, 0.0),
-         ipa: bool = False) -> dict:
+         ipa: bool = False, frozen: dict | None = None) -> dict:
     """The tables ``proc`` makes from the ``train`` lines (a mask over ``batch.lines``); ``ipa``: it
-    makes the table of the words read from IPA, the English one held at ``fixed``."""
+    makes the table of the words read from IPA, the English one held at ``fixed``; ``frozen``: pairs
+    whose offsets are given, not tuned."""
+    frozen = frozen or {}
     if proc.group == "none":
-        return tables({}, 0.0, fixed, ipa)
+        return tables(dict(frozen), 0.0, fixed, ipa)
     cands = grid(proc.step)
-    got = batch.counts(*rows(batch, [tables({}, d, fixed, ipa) for d in cands]), train)
+    got = batch.counts(*rows(batch, [tables(dict(frozen), d, fixed, ipa) for d in cands]), train)
     default = cands[int(np.argmax(got))]
     if proc.group == "one":
-        return tables({}, default, fixed, ipa)
+        return tables(dict(frozen), default, fixed, ipa)
     n = pair_counts(batch, train, ipa)
     members = defaultdict(list)
     for pair in n:
-        members[group_of(pair, proc.group)].append(pair)
+        if pair not in frozen:
+            members[group_of(pair, proc.group)].append(pair)
     table: dict = {}
     for _ in range(proc.rounds):
         last = dict(table)      # the first pass: each pair alone, the others at the default
@@ -327,7 +348,7 @@ def tune(batch: Batch, train: np.ndarray, proc: Procedure, fixed: tuple = ({}, 0
             seen = sum(n[p] for p in pairs)
             if seen < proc.min_count:
                 continue
-            others = {p: o for p, o in last.items() if p not in pairs}
+            others = {**frozen, **{p: o for p, o in last.items() if p not in pairs}}
             cands = grid(proc.step, default)
             tabs = [tables({**others, **dict.fromkeys(pairs, o)}, default, fixed, ipa) for o in cands]
             got = batch.counts(*rows(batch, tabs), train)
@@ -340,7 +361,7 @@ def tune(batch: Batch, train: np.ndarray, proc: Procedure, fixed: tuple = ({}, 0
                 table.pop(p, None)
             if off != default:
                 table.update(dict.fromkeys(pairs, off))
-    return tables(table, default, fixed, ipa)
+    return tables({**frozen, **table}, default, fixed, ipa)
 
 
 # --- the splits --------------------------------------------------------------------------------------
@@ -366,12 +387,13 @@ def fold_masks(batch: Batch, key: str) -> dict:
     return {v: np.array([x == v for x in values]) for v in sorted(set(values))}
 
 
-def bootstrap_se(batch: Batch, diff: np.ndarray, rounds: int = 2000) -> float:
-    """Standard error of the mean of ``diff`` (per reference phone) when the lines are drawn again
-    with replacement."""
+def bootstrap_se(batch: Batch, diff: np.ndarray, rounds: int = 2000, mask: np.ndarray | None = None) -> float:
+    """Standard error of the mean of ``diff`` (per reference phone; only those of ``mask``) when the
+    lines are drawn again with replacement."""
     n = len(batch.lines)
-    per = np.bincount(batch.rline, weights=diff, minlength=n)
-    size = np.bincount(batch.rline, minlength=n).astype(float)
+    mask = np.ones(len(diff), bool) if mask is None else mask
+    per = np.bincount(batch.rline, weights=np.where(mask, diff, 0.0), minlength=n)
+    size = np.bincount(batch.rline, weights=mask.astype(float), minlength=n)
     rng = np.random.default_rng(0)
     draws = rng.integers(0, n, size=(rounds, n))
     return float(np.std(per[draws].sum(axis=1) / size[draws].sum(axis=1)))
@@ -400,7 +422,7 @@ MAIN = 2        # timing.json's way
 def load(data, limit: int | None = None) -> list[Line]:
     """Every TIMIT sentence aligned without correction, as :class:`Line` s."""
     lines = []
-    with corrections_off() as calls:
+    with recording() as calls:
         for k, (name, wav, text, ref) in enumerate(sentences(data, DEV + HELD, limit)):
             snd = audio_mod.load(wav)
             calls.clear()
@@ -419,14 +441,11 @@ def load(data, limit: int | None = None) -> list[Line]:
     return lines
 
 
-def check(batch: Batch, cfg: dict, ipa_cfg: dict | None = None) -> int:
-    """Starts where :class:`Batch` and ``shift_boundaries`` disagree, with timing.json's tables."""
-    ours = batch.starts(*rows(batch, [shipped_tables(cfg, ipa_cfg)]))[0]
-    bad = 0
-    for line, base in zip(batch.lines, batch.first):
-        theirs = engine_starts(line, cfg, ipa_cfg)
-        bad += sum(abs(ours[base + k] - t) > 1e-9 for k, t in enumerate(theirs))
-    return bad
+def check(batch: Batch, shipped: dict) -> int:
+    """Starts where :class:`Batch` under timing.json's tables and the engine's own run disagree."""
+    ours = batch.shown(*rows(batch, [shipped]))[0]
+    return sum(abs(ours[base + k] - t) > 1e-9 for line, base in zip(batch.lines, batch.first)
+               for k, t in enumerate(line.shown))
 
 
 def shipped_tables(cfg: dict, ipa_cfg: dict | None = None) -> dict:
@@ -458,12 +477,12 @@ def main() -> None:
     shipped = shipped_tables(cfg)
     dev = np.array([line.groups["half"] == "dev" for line in lines])
     on_dev, on_held = dev[batch.rline], ~dev[batch.rline]
-    print(f"TIMIT: {len(lines)} sentences, 8 speakers, aligned once without boundary correction in "
-          f"{time.perf_counter() - t0:.0f} s; {len(batch.rline)} matched phone starts ({on_dev.sum()} of the "
-          f"development speakers, {on_held.sum()} held out); {sum(not line.exact for line in lines)} "
-          "sentences whose phones were changed after the correction's place (slowed, laid out again)")
-    print(f"the offline correction against shift_boundaries with timing.json's table: {check(batch, cfg)} of "
-          f"{len(batch.a)} starts differ")
+    print(f"TIMIT: {len(lines)} sentences, 8 speakers, aligned once in {time.perf_counter() - t0:.0f} s; "
+          f"{len(batch.rline)} matched phone starts ({on_dev.sum()} of the development speakers, {on_held.sum()} "
+          f"held out); {sum(line.factor != 1 for line in lines)} sentences aligned on a slowed copy, "
+          f"{sum(not line.exact for line in lines)} whose phones were moved after the correction (left as they are)")
+    print(f"the correction re-applied offline with timing.json's table: {check(batch, shipped)} of {len(batch.a)} "
+          "starts differ from the engine's")
     err = batch.errors(*rows(batch, [shipped]))[0]
     print("timing.json's table scored here (20 ms, 40 ms, closures 40 ms): dev "
           + cell(figures(err[on_dev], batch.rclo[on_dev])) + ", held "
