@@ -36,8 +36,12 @@ the languages of every other family, scored on this one's, pooled over the 10 fa
 ``FAMILY``, Glottolog's top level; Atlantic-Congo holds 24 of the 36), **1 language out** (36 folds).
 Each cell: the share of reference phones whose matched start lies within 20 ms (then 40 ms), as
 ``bench/languages.py`` counts them.  The same on the words with a raw Montreal Forced Aligner
-alignment, beside that alignment's own figure.  ``--offsets`` prints the tables the procedures make on
-all the languages.
+alignment, beside that alignment's own figure.  The first table adds the optimism of the in-sample
+figure (in-sample less one family out) and each procedure's one-family-out difference from
+timing.json's way, with its standard error over words drawn again with replacement.  Then per family,
+timing.json's way tuned on all and without the family, beside timing.json's ``boundary_ipa`` and the
+English offsets; and ``boundary_ipa`` beside the table timing.json's way makes today on all the
+languages.  ``--offsets`` prints the tables the procedures make on all the languages.
 
     .venv/bin/python bench/crossval_languages.py        # about 3.5 minutes
     .venv/bin/python bench/crossval_languages.py --limit 5 --offsets
