@@ -570,7 +570,8 @@ def report(batch: Batch, results: dict, splits: list[str], pooled: str, inside: 
     for k, what in enumerate(("phone starts within 20 ms", "phone starts within 40 ms",
                               "/p b m/ closure onsets within 40 ms")):
         extra = k == 0
-        print(f"\n{what} ({pooled}; dev/held: bench/timit.py's halves)")
+        count = f"{batch.rclo.sum()} of the {pooled}" if k == 2 else pooled
+        print(f"\n{what} ({count}; dev/held: bench/timit.py's halves)")
         print(f"{'procedure':40s} " + " ".join(f"{s:>13s}" for s in splits)
               + (f" {'optimism':>8s} {crossed + ' vs main':>22s}" if extra else ""))
         base = results[main_name][crossed][0] <= 0.02
