@@ -46,7 +46,7 @@ tuned on all 8, without the speaker and without its region, beside timing.json's
 with and without; and timing.json's offsets beside the ones the same procedure picks on today's
 alignments.  ``--offsets`` prints every procedure's tables.
 
-    .venv/bin/python bench/crossval.py              # about 90 s
+    .venv/bin/python bench/crossval.py              # about a minute (2 cores)
     .venv/bin/python bench/crossval.py --offsets
 """
 

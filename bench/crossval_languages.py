@@ -43,7 +43,7 @@ timing.json's way tuned on all and without the family, beside timing.json's ``bo
 English offsets; and ``boundary_ipa`` beside the table timing.json's way makes today on all the
 languages.  ``--offsets`` prints the tables the procedures make on all the languages.
 
-    .venv/bin/python bench/crossval_languages.py        # about 3.5 minutes
+    .venv/bin/python bench/crossval_languages.py        # 2-4 minutes (2 cores)
     .venv/bin/python bench/crossval_languages.py --limit 5 --offsets
 """
 

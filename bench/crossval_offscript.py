@@ -19,7 +19,7 @@ clips, ``bench/offscript.py``'s headline), and leave one clip out: for each clip
 best mean over the other four, scored on that clip (a tie: the mean of the tied ``lw`` s' scores),
 pooled over the five clips and over their events.
 
-    .venv/bin/python bench/crossval_offscript.py                  # about 3 minutes
+    .venv/bin/python bench/crossval_offscript.py                  # about 2 minutes (2 cores)
     .venv/bin/python bench/crossval_offscript.py --lw 3 4 5 6.5
 """
 
