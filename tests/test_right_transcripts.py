@@ -136,10 +136,10 @@ def test_a_hoarse_line_is_aligned_whole():
 
 
 def test_a_line_too_fast_for_the_aligners_frames_is_aligned_on_a_slowed_copy():
-    """At 2.2 times its speed the line has under 30 ms a phone, the shortest the aligner gives one: its
+    """At 2.5 times its speed the line has under 30 ms a phone, the shortest the aligner gives one: its
     first pass squeezes them, the slowed copy gives them their time (phones shorter than the aligner
     can make on the clip itself), and the words keep their order and stay inside the clip."""
-    snd = _faster(_hello(), 2.2)
+    snd = _faster(_hello(), 2.5)
     from addon.engine.alignment import align_audio
 
     al = align_audio(snd, HELLO_TEXT)
