@@ -55,7 +55,10 @@ def loop_pass(audio: Audio, prons: Sequence[Sequence[str]], first: int, gaps: se
     if beam:
         settings = replace(settings, beam=beam, pbeam=beam, wbeam=beam)
     try:
-        decoder = _decoder(prons, first, settings, more=[f"x{p} {p}" for p in LOOP_PHONES], wip=penalty)
+        # Each word as written: the pass looks for speech the words do not hold, and a word's other
+        # pronunciations (.model.Variants) would let it take some of that speech.
+        decoder = _decoder([list(p) for p in prons], first, settings, more=[f"x{p} {p}" for p in LOOP_PHONES],
+                           wip=penalty)
         decoder.add_jsgf_string("loops", grammar)
         decoder.activate_search("loops")
         decoder.start_utt()
