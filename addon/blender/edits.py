@@ -184,18 +184,19 @@ def _store(obj, slot: str, line: str, label: str, take: Take | None) -> None:
 
 def forget(obj) -> int:
     """Forget every line remembered on ``obj`` (Clear, Bake); how many there were."""
+    n = remembered(obj)
     owner = _Target(obj).id_data if obj is not None and obj.type in ("MESH", "ARMATURE") else None
-    if owner is None or RECORD not in owner:
-        return 0
-    n = len(owner[RECORD].keys()) if hasattr(owner[RECORD], "keys") else 0
-    del owner[RECORD]
+    if owner is not None and RECORD in owner:
+        del owner[RECORD]
     return n
 
 
 def remembered(obj) -> int:
-    """How many lines ``obj`` remembers the curves of."""
-    return len(takes(obj)) if obj is not None and obj.type in ("MESH", "ARMATURE") and \
-        _Target(obj).id_data is not None else 0
+    """How many lines ``obj`` remembers the curves of (counted, not read:
+    the panel asks on every redraw)."""
+    owner = _Target(obj).id_data if obj is not None and obj.type in ("MESH", "ARMATURE") else None
+    group = owner.get(RECORD) if owner is not None else None
+    return len(group.keys()) if group is not None and hasattr(group, "keys") else 0
 
 
 def _match(found: dict[str, Line], line: str, first: int, last: int) -> str | None:
