@@ -201,7 +201,8 @@ def remembered(obj) -> int:
 
 def _match(found: dict[str, Line], line: str, first: int, last: int) -> str | None:
     """The slot of the remembered line this one re-keys: the same line,
-    else the one its frames overlap most."""
+    else the one its frames overlap most, over half of the shorter of the
+    two at least (a new take over the old; not the next line, touching it)."""
     slot = _slot(line)
     if slot in found:
         return slot
@@ -209,7 +210,7 @@ def _match(found: dict[str, Line], line: str, first: int, last: int) -> str | No
     for s, remembered_line in found.items():
         take = remembered_line.take
         overlap = min(last, take.last) - max(first, take.first) + 1
-        if overlap > most:
+        if overlap > most and 2 * overlap >= min(last - first, take.last - take.first) + 1:
             best, most = s, overlap
     return best
 
@@ -352,6 +353,8 @@ def key_line(obj, names: list[str], values: np.ndarray, first: int, *, tolerance
         _hold_edges(target, names + list(forget_keys), outcome.lock)
     counts = {"keys": 0, "replaced": 0, "fcurves_created": 0, "first_frame": first, "last_frame": last,
               "shape_keys": len(names)}
+    if old is not None:
+        counts["replaced"] += _clear_stale(target, old, first, last, outcome.lock)
     for a, b in _pieces(first, last, outcome.lock):
         rows = slice(a - first, b - first + 1)
         if target.rig:
@@ -374,6 +377,20 @@ def key_line(obj, names: list[str], values: np.ndarray, first: int, *, tolerance
                 outcome.carried.held if outcome.carried is not None else {})
     _remember(obj, slot, line, label, take, frames, names, drawn, outcome.lock)
     return counts, outcome
+
+
+def _clear_stale(target: _Target, old: Take, first: int, last: int, lock: tuple[int, int] | None) -> int:
+    """Remove the keys of the line's last run on the frames this run does
+    not key (the strip moved, or the new take is shorter): the line is
+    there no more.  How many keys went."""
+    removed = 0
+    for a, b in _pieces(old.first, old.last, (first, last)):
+        for lo, hi in _pieces(a, b, lock):
+            for name in old.names:
+                fc = target.fcurve(name)
+                if fc is not None:
+                    removed += keying.replace_range(fc, lo, hi)
+    return removed
 
 
 def _remember(obj, slot: str | None, line: str, label: str, take: Take, frames, names, drawn, lock) -> None:

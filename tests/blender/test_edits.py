@@ -197,6 +197,25 @@ def test_an_edit_moves_with_its_sound_to_a_take_03_s_later(head, sample_audio, t
     assert np.abs(diff).max() == pytest.approx(diff[moved])
 
 
+def test_an_edit_moves_with_its_strip_and_the_frames_it_left_lose_their_keys(head, sample_audio, monkeypatch):
+    sc, obj = head
+    runs = _summary(monkeypatch)
+    audio, _al = sample_audio
+    assert _generate(obj) == {"FINISHED"}
+    at = _raise(obj)
+    _mod("blender.compat").all_strips(sc)[0].frame_start += 9
+    frames = np.arange(START, START + int(np.ceil(audio.duration * FPS)) + 10)
+    assert _generate(obj) == {"FINISHED"}
+    assert runs[-1].edits == "hand edits: 1 moved with their sound"
+    assert min(k[0][0] for k in _keys(obj)) == START + 9      # the old line's first frames are not keyed
+    carried = _values(obj, frames)
+    _fresh(obj)
+    diff = carried - _values(obj, frames)
+    assert diff[at + 9 - START] == pytest.approx(0.25, abs=1e-4)
+    diff[at + 9 - START] = 0
+    assert np.abs(diff).max() <= 1e-4
+
+
 def test_an_edit_on_a_word_gone_from_the_transcript_is_dropped_and_reported(head, sample_audio, tmp_path,
                                                                             monkeypatch):
     sc, obj = head
