@@ -283,3 +283,18 @@ def test_an_edit_with_no_word_to_anchor_it_stays_where_it_was():
 def test_edit_peak_and_frames():
     e = Edit("jawOpen", 10, np.array([0.1, -0.3, 0.2]))
     assert e.peak == 11 and list(e.frames) == [10, 11, 12]
+
+
+def test_words_are_matched_around_the_changes_of_a_long_line():
+    import time
+
+    from addon.engine.edits import _matched
+
+    a = [f"w{k}" for k in range(3000)]
+    b = a[:1000] + ["new"] + a[1001:2000] + a[2001:] + ["end"]
+    t0 = time.perf_counter()
+    m = _matched(a, b)
+    assert time.perf_counter() - t0 < 2.0
+    assert m[999] == 999 and 1000 not in m and m[1001] == 1001 and m[2001] == 2000 and m[2999] == 2998
+    assert _matched(["a", "b", "c"], ["a", "x", "c"]) == {0: 0, 2: 2}
+    assert _matched(["the", "cat"], ["the", "the", "cat"]) in ({0: 0, 1: 2}, {0: 1, 1: 2})

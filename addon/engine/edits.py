@@ -12,8 +12,8 @@ keys the run wrote there and keyed their own).
 
 The new alignment may place the sounds elsewhere: a new take, a transcript
 with a word changed, another speed.  :class:`Warp` matches the old words to
-the new by their text (a minimum edit path), then the phones of each
-matched word, and maps old times to new ones through those anchors,
+the new by their text (the runs of words the two share, in order), then
+the phones of each matched word, and maps old times to new ones through those anchors,
 piecewise linear; an edit moves and stretches with the sounds it sits on.
 An edit on a word the new line does not say is dropped.  :func:`carry` lays
 the edits on the new run's curves and says what became of them
@@ -26,6 +26,7 @@ writes the keys.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from dataclasses import dataclass, field
@@ -33,7 +34,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .alignment import Alignment
-from .alignment.verify import edit_path
 
 #: How far a curve may differ from the one remembered and still count as
 #: untouched (the keys hold 32-bit floats; the copy is read back from them).
@@ -211,15 +211,26 @@ def _word_key(text: str) -> str:
     return re.sub(r"[^\w']+", "", text.lower())
 
 
+def _matched(a: list[str], b: list[str]) -> dict[int, int]:
+    """The words of ``a`` matched in ``b`` (index -> index), in order: the
+    longest run of words the two share, then the longest in what is left on
+    either side of it, and so on (:class:`difflib.SequenceMatcher`'s
+    matching blocks; a line changes in a few places, and this takes time
+    in proportion to its length where a minimum edit path takes it in
+    proportion to its square)."""
+    out = {}
+    for i, j, n in difflib.SequenceMatcher(None, a, b, autojunk=False).get_matching_blocks():
+        out.update({i + k: j + k for k in range(n)})
+    return out
+
+
 class Warp:
     """Old line times -> new line times, through the words the two timings
     share (and their phones, where a word's phones are the same in both).
     Where no word matches, times stay as they were."""
 
     def __init__(self, old: Timing, new: Timing, smooth: float = SMOOTH):
-        a = [_word_key(w[0]) for w in old.words]
-        b = [_word_key(w[0]) for w in new.words]
-        self.matched = {i: j for i, j, same in edit_path(a, b) if same}
+        self.matched = _matched([_word_key(w[0]) for w in old.words], [_word_key(w[0]) for w in new.words])
         self.old = old
         pairs = []
         for i, j in self.matched.items():
