@@ -298,3 +298,16 @@ def test_words_are_matched_around_the_changes_of_a_long_line():
     assert m[999] == 999 and 1000 not in m and m[1001] == 1001 and m[2001] == 2000 and m[2999] == 2998
     assert _matched(["a", "b", "c"], ["a", "x", "c"]) == {0: 0, 2: 2}
     assert _matched(["the", "cat"], ["the", "the", "cat"]) in ({0: 0, 1: 2}, {0: 1, 1: 2})
+
+
+def test_a_long_line_is_warped_quickly():
+    import time
+
+    words = [(f"w{k}", 0.3 * k, 0.3 * k + 0.25, ["AA", "B", "IY"]) for k in range(2000)]
+    old = _timing(words)
+    new = _timing(words[:700] + words[701:], shift=0.3)
+    t0 = time.perf_counter()
+    warp = edits.Warp(old, new)
+    assert time.perf_counter() - t0 < 2.0
+    assert warp.gone(0.3 * 700 + 0.1) == "w700"
+    assert warp(0.3 * 100 + 0.1) == pytest.approx(0.3 * 100 + 0.4)

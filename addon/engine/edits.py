@@ -78,8 +78,12 @@ class Timing:
         return cls(tuple((str(t), float(a), float(b)) for t, a, b in doc.get("words", [])),
                    tuple((str(p), float(a), float(b), int(w)) for p, a, b, w in doc.get("phones", [])))
 
-    def word_phones(self, k: int) -> list[tuple[str, float, float, int]]:
-        return [p for p in self.phones if p[3] == k]
+    def by_word(self) -> dict[int, list[tuple[str, float, float, int]]]:
+        """Each word's phones, by the word's index."""
+        out: dict[int, list] = {}
+        for p in self.phones:
+            out.setdefault(p[3], []).append(p)
+        return out
 
 
 @dataclass
@@ -233,8 +237,9 @@ class Warp:
         self.matched = _matched([_word_key(w[0]) for w in old.words], [_word_key(w[0]) for w in new.words])
         self.old = old
         pairs = []
+        old_phones, new_phones = old.by_word(), new.by_word()
         for i, j in self.matched.items():
-            po, pn = old.word_phones(i), new.word_phones(j)
+            po, pn = old_phones.get(i, []), new_phones.get(j, [])
             if po and [p[0] for p in po] == [p[0] for p in pn]:
                 pairs += [(p[1], q[1]) for p, q in zip(po, pn)] + [(po[-1][2], pn[-1][2])]
             else:
