@@ -163,7 +163,7 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
     if line.emotion:
         options = dataclasses.replace(options, line=options.line.replace(emotion=userdata.load_preset(line.emotion)))
     if "edits" in line.extra:
-        options = dataclasses.replace(options, edits=edits.check_mode(line.extra["edits"].lower()))
+        options = dataclasses.replace(options, hand_edits=edits.check_mode(line.extra["edits"].lower()))
     if "lock" in line.extra:
         options = dataclasses.replace(options, lock=edits.parse_lock(line.extra["lock"]))
     return run.generate(scene, inputs, options)

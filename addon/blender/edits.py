@@ -267,12 +267,16 @@ def _edge(fc, frame: float, inside_after: bool) -> None:
     fc.update()
 
 
-def _hold_edges(target: _Target, names: list[str], lock: tuple[int, int]) -> None:
+def _hold_edges(target: _Target, names: list[str], lock: tuple[int, int], first: int, last: int) -> None:
+    """Hold the curves of ``names`` at the edges of ``lock`` that the line's
+    new keys (frames ``first`` to ``last``) border."""
     for name in names:
         fc = target.fcurve(name)
         if fc is not None:
-            _edge(fc, lock[0], True)
-            _edge(fc, lock[1], False)
+            if lock[0] > first:
+                _edge(fc, lock[0], True)
+            if lock[1] < last:
+                _edge(fc, lock[1], False)
 
 
 def _pieces(first: int, last: int, lock: tuple[int, int] | None) -> list[tuple[int, int]]:
@@ -350,7 +354,7 @@ def key_line(obj, names: list[str], values: np.ndarray, first: int, *, tolerance
             outcome.carried = engine_edits.carry(old, edits, timing, first, fps, names, fresh, outcome.lock)
             final = outcome.carried.values
     if outcome.lock is not None:
-        _hold_edges(target, names + list(forget_keys), outcome.lock)
+        _hold_edges(target, names + list(forget_keys), outcome.lock, first, last)
     counts = {"keys": 0, "replaced": 0, "fcurves_created": 0, "first_frame": first, "last_frame": last,
               "shape_keys": len(names)}
     if old is not None:

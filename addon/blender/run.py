@@ -30,7 +30,7 @@ class Options:
     line: LineSettings                   # the emotion, coarticulation, frame rate, dictionary, language ...
     tolerance: float = 0.0               # key reduction: 0 keys every frame
     whole_character: bool = True         # also key the character's other meshes with those shape keys
-    edits: str = "keep"                  # the animator's edits of the line's last run: keep or discard
+    hand_edits: str = "keep"             # the animator's edits of the line's last run: keep or discard
     lock: tuple[int, int] | None = None  # frames Generate leaves as they are (first, last)
 
 
@@ -61,7 +61,7 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     mode = edits.check_mode(hand_edits or st.hand_edits.lower())
     locked = edits.parse_lock(lock) if lock is not None else \
         (edits.check_lock((st.lock_first, st.lock_last)) if st.lock_frames else None)
-    return Options(line, tolerance, whole_character=st.whole_character, edits=mode, lock=locked)
+    return Options(line, tolerance, whole_character=st.whole_character, hand_edits=mode, lock=locked)
 
 
 @dataclass
@@ -415,8 +415,8 @@ def _write(obj, names: list[str], values, plan: Plan, result: Result, report: ed
     opts = plan.options
     counts, outcome = edits.key_line(obj, names, values, plan.clip.first_frame, tolerance=opts.tolerance,
                                      label=plan.clip.label, line=edits.line_id(plan.clip),
-                                     alignment=result.alignment, fps=opts.line.fps, mode=opts.edits, lock=opts.lock,
-                                     forget_keys=forget)
+                                     alignment=result.alignment, fps=opts.line.fps, mode=opts.hand_edits,
+                                     lock=opts.lock, forget_keys=forget)
     report.outcomes.append(outcome)
     return counts
 

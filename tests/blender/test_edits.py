@@ -277,6 +277,24 @@ def test_a_locked_range_keeps_its_keys_and_the_rest_is_keyed_afresh(head, sample
     assert np.abs(locked[inside] - fresh[inside]).max() > 0.05
 
 
+def test_a_lock_reaching_before_the_line_leaves_the_keys_there_alone(scene, monkeypatch):
+    runs = _summary(monkeypatch)
+    kit = bpy.data.objects["Kit"]
+    add_strip(scene, "line", BOB, frame=START + 10)
+    assert _generate(kit, text=BOB_TEXT) == {"FINISHED"}
+    fc = _fcurve(kit)
+    for frame, value in ((1, 0.3), (4, 0.6), (8, 0.1)):     # the animator's own keys before the line
+        fc.keyframe_points.insert(frame, value).interpolation = "BEZIER"
+    before = _keys(kit)
+    fine = np.arange(1, START + 17.01, 0.25)
+    drawn = _values(kit, fine)
+    assert _generate(kit, text=BOB_TEXT, emotion="angry", lock=f"0-{START + 17}") == {"FINISHED"}
+    assert runs[-1].edits == f"frames 0-{START + 17} locked (left as they were)"
+    after = _keys(kit)
+    assert [k for k in after if k[0][0] < START + 17] == [k for k in before if k[0][0] < START + 17]
+    np.testing.assert_allclose(_values(kit, fine), drawn, atol=1e-5)
+
+
 def test_clear_removes_the_keys_and_the_edits_and_undo_brings_both_back(head, monkeypatch):
     _sc, obj = head
     runs = _summary(monkeypatch)
