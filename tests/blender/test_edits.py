@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import wave
+from types import SimpleNamespace
 from importlib import import_module
 from pathlib import Path
 
@@ -385,9 +386,39 @@ def test_the_panel_settings_choose_discard_and_the_lock(head, sample_audio, monk
     _raise(obj)
     assert _generate(obj, hand_edits="keep") == {"FINISHED"}
     assert runs[-1].edits == "hand edits: 1 kept"
-    # The panel's Hand Edits part draws (no error in draw()).
-    panel = _mod("blender.edits_ui").LIPSYNC_PT_edits
-    assert panel.bl_parent_id == "LIPSYNC_PT_main"
+    # The panel's Hand Edits part draws the settings and the Bake button.
+    st.target = obj
+    layout = _Layout()
+    _mod("blender.edits_ui").LIPSYNC_PT_edits.draw(SimpleNamespace(layout=layout), bpy.context)
+    assert {"hand_edits", "lock_frames", "lock_first", "lock_last"} <= set(layout.props)
+    assert layout.operators == ["emotive_lipsync.bake"]
+    assert "Head: 1 line remembered" in layout.labels
+
+
+class _Layout:
+    """A stand-in for a panel's layout: records what is drawn, and checks
+    that each property drawn exists."""
+
+    def __init__(self, root=None):
+        self.root = root or self
+        if root is None:
+            self.props, self.operators, self.labels = [], [], []
+
+    def __getattr__(self, name):
+        if name in ("row", "column", "box", "split"):
+            return lambda *a, **kw: _Layout(self.root)
+        raise AttributeError(name)
+
+    def prop(self, data, name, **_kw):
+        assert hasattr(data, name), name
+        self.root.props.append(name)
+
+    def operator(self, idname, **_kw):
+        self.root.operators.append(idname)
+        return SimpleNamespace()
+
+    def label(self, text="", **_kw):
+        self.root.labels.append(text)
 
 
 def test_the_expression_layer_keeps_edits_on_its_keys(head, monkeypatch):
