@@ -204,7 +204,9 @@ def test_an_edit_moves_with_its_strip_and_the_frames_it_left_lose_their_keys(hea
     audio, _al = sample_audio
     assert _generate(obj) == {"FINISHED"}
     at = _raise(obj)
-    _mod("blender.compat").all_strips(sc)[0].frame_start += 9
+    strip = _mod("blender.compat").all_strips(sc)[0]
+    moved = "content_start" if hasattr(strip, "left_handle") else "frame_start"   # renamed in 5.1
+    setattr(strip, moved, getattr(strip, moved) + 9)
     frames = np.arange(START, START + int(np.ceil(audio.duration * FPS)) + 10)
     assert _generate(obj) == {"FINISHED"}
     assert runs[-1].edits == "hand edits: 1 moved with their sound"
