@@ -120,3 +120,22 @@ def test_what_is_not_a_curve_is_refused():
     with pytest.raises(ValueError, match="interpolation codes"):
         fcurve_eval.evaluate(co, co, co, [BEZIER, 7], [0.5])
     assert fcurve_eval.evaluate(co, co, co, [LINEAR, LINEAR], []).shape == (0,)
+
+
+@pytest.mark.parametrize("reach", [0.2, 1 / 3, 0.5])
+def test_a_bezier_segment_cut_at_a_frame_draws_the_same_curve(reach):
+    """The two halves of a cut segment draw what the whole did (handles
+    reaching up to half the segment: Blender's automatic handles reach a
+    third)."""
+    key, nxt = np.array([2.0, 0.1]), np.array([12.0, 0.9])
+    right, left = key + np.array([reach * 10, 0.5]), nxt - np.array([reach * 10, -0.2])
+    frames = np.linspace(2.0, 12.0, 201)
+    whole = fcurve_eval.evaluate([key, nxt], [key, left], [right, nxt], [BEZIER, BEZIER], frames)
+    h1, hl, mid, hr, h2 = fcurve_eval.split(key, right, left, nxt, 6.0)
+    assert mid[0] == 6.0
+    assert mid[1] == pytest.approx(fcurve_eval.evaluate([key, nxt], [key, left], [right, nxt], [BEZIER] * 2,
+                                                        [6.0])[0], abs=1e-9)
+    halves = fcurve_eval.evaluate([key, mid, nxt], [key, hl, h2], [h1, hr, nxt], [BEZIER] * 3, frames)
+    np.testing.assert_allclose(halves, whole, atol=1e-7)
+    with pytest.raises(ValueError):
+        fcurve_eval.split(key, right, left, nxt, 12.0)

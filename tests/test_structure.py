@@ -22,7 +22,7 @@ LAYERS = [
     ["language", "resampling", "wavstream", "decoders", "audio", "pauses"],
     ["visemes", "conventions", "presets", "prosody", "weights", "arousal", "alignment", "importers"],
     ["coarticulation", "emotion_track", "expression", "settings", "render", "mapping", "key_reduction", "pose_blend"],
-    ["output", "pipeline", "learning", "keys"],
+    ["output", "pipeline", "learning", "keys", "edits"],
     ["batch", "cli", "arousal_cli", "__main__"],
 ]
 

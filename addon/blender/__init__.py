@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import bpy
 
-from . import command, learning, operators, panel, preset_ui, props
+from . import command, edits_ui, learning, operators, panel, preset_ui, props
 
-_classes = operators.classes + learning.classes + preset_ui.classes + panel.classes
+_classes = operators.classes + learning.classes + preset_ui.classes + panel.classes + edits_ui.classes
 _cli_handle = None
 
 

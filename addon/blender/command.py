@@ -31,7 +31,7 @@ import bpy
 from ..engine import batch, visemes
 from ..engine.errors import LipSyncError
 from ..engine.language.text import read_text_file
-from . import compat, run, sources, userdata
+from . import compat, edits, run, sources, userdata
 
 COMMAND = "lipsync"
 
@@ -61,7 +61,7 @@ def parser() -> argparse.ArgumentParser:
     what.add_argument("--manifest", metavar="FILE",
                       help="CSV (with a header) or JSON lines naming per line a 'strip', or an 'audio' file "
                            "(placed at its 'frame', else after the previous one) and a 'mesh'; optional "
-                           "'transcript', 'text', 'emotion', 'viseme_set'")
+                           "'transcript', 'text', 'emotion', 'viseme_set', 'edits', 'lock'")
     ap.add_argument("--scene", help="scene name (default: the file's active scene)")
     ap.add_argument("--mesh", help="face mesh (required for --audio; for strips, used when a strip names none)")
     text = ap.add_mutually_exclusive_group()
@@ -75,6 +75,11 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--language", metavar="CODE",
                     help="language of the transcripts (de, deu, pt-BR, zh, ja ...; default: English); "
                          "a manifest's 'language' column says it per line")
+    ap.add_argument("--edits", choices=("keep", "discard"), default=None,
+                    help="your changes to the keys of a line's last run: laid on the new keys, moved with their "
+                         "sound (keep), or dropped (discard); default: the scene's panel (keep)")
+    ap.add_argument("--lock", metavar="FIRST-LAST",
+                    help="frames whose keys are left exactly as they are (none: no lock; default: the panel's)")
     out = ap.add_mutually_exclusive_group()
     out.add_argument("--save", action="store_true", help="save the .blend in place")
     out.add_argument("--output", metavar="FILE.blend", help="save to this file")
@@ -157,6 +162,10 @@ def _key_line(scene, line: batch.Line, mesh, fixed, options: run.Options, args, 
         _set_viseme_set(inputs.target, viseme_set)
     if line.emotion:
         options = dataclasses.replace(options, line=options.line.replace(emotion=userdata.load_preset(line.emotion)))
+    if "edits" in line.extra:
+        options = dataclasses.replace(options, hand_edits=edits.check_mode(line.extra["edits"].lower()))
+    if "lock" in line.extra:
+        options = dataclasses.replace(options, lock=edits.parse_lock(line.extra["lock"]))
     return run.generate(scene, inputs, options)
 
 
@@ -183,7 +192,7 @@ def execute(argv: list[str]) -> int:
             raise UsageError("--audio needs --mesh: the face mesh to key")
         fixed = _fixed_text(args)
         options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary,
-                              args.language)
+                              args.language, hand_edits=args.edits, lock=args.lock)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)

@@ -17,7 +17,7 @@ from ..engine import mapping as mapping_mod
 from ..engine import visemes
 from ..engine.errors import LipSyncError
 from ..engine.language.text import read_text_file
-from . import compat, jobs, keying, run, sources
+from . import compat, edits, jobs, keying, run, sources
 
 
 def face(context, name: str = ""):
@@ -36,9 +36,19 @@ def face(context, name: str = ""):
     return obj
 
 
-def _options(context, emotion: str, coarticulation: str, tolerance: float) -> run.Options:
-    """An operator's Emotion, Coarticulation and Tolerance ("" and -1: the panel's)."""
-    return run.options(context.scene, emotion or None, coarticulation or None, tolerance if tolerance >= 0 else None)
+def _options(context, emotion: str, coarticulation: str, tolerance: float, hand_edits: str = "",
+             lock: str = "") -> run.Options:
+    """An operator's Emotion, Coarticulation, Tolerance, Hand Edits and Lock
+    Frames ("" and -1: the panel's)."""
+    return run.options(context.scene, emotion or None, coarticulation or None, tolerance if tolerance >= 0 else None,
+                       hand_edits=hand_edits.strip().lower() or None, lock=lock or None)
+
+
+#: The operators' Hand Edits and Lock Frames (see :mod:`.edits`).
+_HAND_EDITS = dict(name="Hand Edits", description="keep: lay your changes to the line's last keys on the new "
+                                                  "ones; discard: key afresh (empty: the panel's)")
+_LOCK = dict(name="Lock Frames", description="FIRST-LAST: frames whose keys Generate leaves as they are "
+                                             "(none: no lock; empty: the panel's)")
 
 
 class _Progress:
@@ -82,6 +92,8 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
     coarticulation: StringProperty(name="Coarticulation", description="dominance or rules (empty: the panel's)")
     tolerance: FloatProperty(name="Tolerance", default=-1.0,
                              description="Key reduction tolerance; 0 keys every frame (-1: the panel's)")
+    hand_edits: StringProperty(**_HAND_EDITS)
+    lock: StringProperty(**_LOCK)
 
     def _inputs(self, context) -> tuple[sources.LineInputs, run.Options]:
         """The line and how to lip-sync it: the properties, else the panel's settings."""
@@ -90,7 +102,7 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
                                "(-1: the panel's start frame)")
         st = context.scene.emotive_lipsync
         obj = face(context, self.mesh)
-        options = _options(context, self.emotion, self.coarticulation, self.tolerance)
+        options = _options(context, self.emotion, self.coarticulation, self.tolerance, self.hand_edits, self.lock)
         from_file = self.filepath or (not self.strip and st.source == "FILE")
         line = sources.line_inputs(context.scene, strip=self.strip or st.strip,
                                    audio=(self.filepath or st.audio_file) if from_file else None,
@@ -136,6 +148,8 @@ property, else the mesh its name starts with)"""
     coarticulation: StringProperty(name="Coarticulation", description="dominance or rules (empty: the panel's)")
     tolerance: FloatProperty(name="Tolerance", default=-1.0, description="Key reduction tolerance "
                                                                          "(-1: the panel's)")
+    hand_edits: StringProperty(**_HAND_EDITS)
+    lock: StringProperty(**_LOCK)
 
     def execute(self, context):
         scene = context.scene
@@ -144,7 +158,8 @@ property, else the mesh its name starts with)"""
             self.report({"ERROR"}, "the sequencer has no sound strips")
             return {"CANCELLED"}
         try:
-            options = _options(context, self.emotion, self.coarticulation, self.tolerance)
+            options = _options(context, self.emotion, self.coarticulation, self.tolerance, self.hand_edits,
+                               self.lock)
             fallback = bpy.data.objects.get(self.mesh) if self.mesh else None
             if self.mesh and fallback is None:
                 raise LipSyncError(f"no object named {self.mesh!r}")
@@ -182,7 +197,8 @@ def _shape_key_names(obj) -> list[str]:
 
 
 class LIPSYNC_OT_clear(bpy.types.Operator):
-    """Remove the lip-sync keys this add-on wrote on the mesh; keys you set yourself stay"""
+    """Remove the lip-sync keys this add-on wrote on the mesh, with your changes to them; keys you set \
+yourself elsewhere stay"""
 
     bl_idname = "emotive_lipsync.clear"
     bl_label = "Clear Lip Sync"
@@ -202,6 +218,8 @@ class LIPSYNC_OT_clear(bpy.types.Operator):
             self.report({"WARNING"}, f"{obj.name!r} has no lip sync made by this add-on")
             return {"CANCELLED"}
         removed = sum(keying.clear(o)["keys"] for o in targets)
+        for o in targets:   # the curves remembered for hand edits go with the keys
+            edits.forget(o)
         self.report({"INFO"}, f"Removed {removed} lip-sync keys from {', '.join(o.name for o in targets)}")
         return {"FINISHED"}
 

@@ -175,6 +175,15 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
                                             "transcript, an emotion:angry timeline marker) cross-fades")
     dictionary: StringProperty(name="Dictionary", subtype="FILE_PATH",
                                description="Your own pronunciations: lines of WORD PH1 PH2 ... (ARPAbet)")
+    hand_edits: EnumProperty(name="Hand Edits", default="KEEP", items=[
+        ("KEEP", "Keep", "Lay your changes to the keys of the line's last Generate on the new curves, moved with "
+                         "their sound"),
+        ("DISCARD", "Discard", "Key the new curves as they come: your changes to the last Generate's keys go"),
+    ])
+    lock_frames: BoolProperty(name="Lock Frames", default=False,
+                              description="Leave the keys of these frames exactly as they are when Generating")
+    lock_first: IntProperty(name="First", default=1, description="First locked frame")
+    lock_last: IntProperty(name="Last", default=1, description="Last locked frame")
 
     def load_preset(self, preset: presets.Preset | dict, name: str) -> None:
         doc = preset.to_dict() if isinstance(preset, presets.Preset) else preset

@@ -18,7 +18,7 @@ from ..engine import conventions, keys, pipeline, visemes
 from ..engine.output import Result
 from ..engine.errors import LipSyncError
 from ..engine.settings import LineSettings
-from . import compat, emotion_markers, keying, rig, userdata
+from . import compat, edits, emotion_markers, keying, rig, userdata
 from .sources import Clip, LineInputs, scene_fps
 
 
@@ -30,10 +30,13 @@ class Options:
     line: LineSettings                   # the emotion, coarticulation, frame rate, dictionary, language ...
     tolerance: float = 0.0               # key reduction: 0 keys every frame
     whole_character: bool = True         # also key the character's other meshes with those shape keys
+    hand_edits: str = "keep"             # the animator's edits of the line's last run: keep or discard
+    lock: tuple[int, int] | None = None  # frames Generate leaves as they are (first, last)
 
 
 def options(scene, emotion: str | None = None, coarticulation: str | None = None, tolerance: float | None = None,
-            dictionary: str | None = None, language: str | None = None) -> Options:
+            dictionary: str | None = None, language: str | None = None, hand_edits: str | None = None,
+            lock: str | None = None) -> Options:
     """How to lip-sync: each value given (an operator's property, a
     command-line argument), else the scene's Lip Sync settings; the frame
     rate is the scene's.
@@ -41,7 +44,10 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     ``emotion`` names a preset as :func:`.userdata.load_preset` reads it;
     without it the panel's preset, with its edited numbers, is used.
     ``tolerance`` 0 keys every frame; without it the panel's (when Reduce
-    Keys is on).  Paths may start with ``//`` (relative to the .blend)."""
+    Keys is on).  Paths may start with ``//`` (relative to the .blend).
+    ``hand_edits`` is ``keep`` or ``discard``; ``lock`` the frames to leave
+    as they are, ``"FIRST-LAST"`` (``"none"``: no lock); without them the
+    panel's Hand Edits settings."""
     st = scene.emotive_lipsync
     preset = userdata.load_preset(emotion) if emotion else userdata.panel_preset(st)
     if tolerance is None:
@@ -52,7 +58,10 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     line = LineSettings.of(preset, coarticulation=coarticulation or st.coarticulation, fps=scene_fps(scene),
                            dictionary=bpy.path.abspath(dictionary) if dictionary else None,
                            language=language or st.language.strip() or None, emotion_fade=st.emotion_fade)
-    return Options(line, tolerance, whole_character=st.whole_character)
+    mode = edits.check_mode(hand_edits or st.hand_edits.lower())
+    locked = edits.parse_lock(lock) if lock is not None else \
+        (edits.check_lock((st.lock_first, st.lock_last)) if st.lock_frames else None)
+    return Options(line, tolerance, whole_character=st.whole_character, hand_edits=mode, lock=locked)
 
 
 @dataclass
@@ -74,6 +83,7 @@ class Summary:
     expression_keys: list[str] = field(default_factory=list)   # the shape keys they drove
     no_key: list[str] = field(default_factory=list)          # the preset's units the mesh has no key for
     kept: list[str] = field(default_factory=list)            # expression keys left to the user's animation
+    edits: str = ""                 # what became of the animator's edits (see .edits.Report)
     unheard_words: int = 0          # transcript words the take does not hold (left unspoken)
     unscripted_seconds: float = 0.0  # speech the transcript leaves out, animated from recognition
     recognized: bool = False        # no transcript: every word was recognised
@@ -96,6 +106,8 @@ class Summary:
             face += f"; no shape key shows {', '.join(self.no_key)} (left out)"
         if self.kept:
             face += f"; kept your animation on {', '.join(self.kept)} (not keyed)"
+        if self.edits:
+            face += f"; {self.edits}"
         return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} {self.driven}{also}, "
                 f"frames {self.first_frame}-{self.last_frame}{again}{est}{face}, in {self.seconds:.1f} s"
                 + "".join(f"; warning: {w}" for w in self.warnings))
@@ -368,8 +380,8 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     if gone:
         raise LipSyncError(f"mesh {obj.name!r} no longer has shape key {', '.join(map(repr, gone))}; "
                            "nothing was keyed")
-    keying.forget(obj, line.dropped, clip.first_frame, clip.first_frame + line.frames - 1)
-    counts = keying.write(obj, names, values, clip.first_frame, plan.options.tolerance, clip.label)
+    report = edits.Report()
+    counts = _write(obj, names, values, plan, result, report, line.dropped)
     also = []
     only_face = set(line.driven_only_by(keys.EXPRESSION))
     for name in plan.also:
@@ -380,8 +392,7 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
             have -= set(keying.user_animated(other, sorted(have & only_face)))
         cols = [j for j, k in enumerate(names) if k in have]
         if cols:   # a companion deleted or changed meanwhile is simply left alone
-            keying.write(other, [names[j] for j in cols], values[:, cols], clip.first_frame,
-                         plan.options.tolerance, clip.label)
+            _write(other, [names[j] for j in cols], values[:, cols], plan, result, report)
             also.append(name)
     scene = bpy.data.scenes.get(plan.scene)
     if clip.strip and scene is not None and result.arousal is not None:
@@ -394,7 +405,20 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
                    last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
                    warnings=list(result.warnings), expression=line.units, expression_keys=line.expression_keys,
-                   no_key=line.no_key, kept=line.kept, **_heard(words, result))
+                   no_key=line.no_key, kept=line.kept, edits=report.message(), **_heard(words, result))
+
+
+def _write(obj, names: list[str], values, plan: Plan, result: Result, report: edits.Report,
+           forget: list[str] = ()) -> dict:
+    """Key one target's channels as :mod:`.keying` does, with the
+    animator's edits of the line's last run (:func:`.edits.key_line`)."""
+    opts = plan.options
+    counts, outcome = edits.key_line(obj, names, values, plan.clip.first_frame, tolerance=opts.tolerance,
+                                     label=plan.clip.label, line=edits.line_id(plan.clip),
+                                     alignment=result.alignment, fps=opts.line.fps, mode=opts.hand_edits,
+                                     lock=opts.lock, forget_keys=forget)
+    report.outcomes.append(outcome)
+    return counts
 
 
 def _heard(words, result: Result) -> dict:
@@ -416,13 +440,14 @@ def _key_rig(obj, plan: Plan, analysis: Analysis, t0: float) -> Summary:
         raise LipSyncError(f"armature {obj.name!r} no longer has pose asset or property "
                            f"{', '.join(map(repr, gone))}; nothing was keyed")
     paths, curves = rig.channels(obj, line.names, line.table(), line.closing, line.closure)
-    counts = keying.write_rig(obj, paths, curves, clip.first_frame, plan.options.tolerance, clip.label)
+    report = edits.Report()
+    counts = _write(obj, [f"{index}:{path}" for path, index in paths], curves, plan, result, report)
     t1 = time.perf_counter()
     words = result.alignment.words
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
                    last_frame=counts["last_frame"], shape_keys=len(line.channels), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0},
-                   warnings=list(result.warnings),
+                   warnings=list(result.warnings), edits=report.message(),
                    driven=f"poses and properties ({len(paths)} bone and property channels)", **_heard(words, result))
 
 

@@ -14,7 +14,9 @@ for each frame.  Before the first key and after the last the curve holds
 the end key's value (constant extrapolation).
 
 The key reduction of the Blender layer uses it to check the curve Blender
-will draw through the keys it kept; nothing here needs Blender.
+will draw through the keys it kept, and a locked range of frames keeps its
+shape when a key is added at its edge (:func:`split`); nothing here needs
+Blender.
 """
 
 from __future__ import annotations
@@ -84,3 +86,38 @@ def evaluate(keys, handle_left, handle_right, interpolation, frames, tol: float 
     out = np.where(frames <= co[0, 0], co[0, 1], out)
     out = np.where(frames >= co[-1, 0], co[-1, 1], out)
     return out
+
+
+def split(key, handle_right, handle_left, next_key, frame: float, tol: float = 1e-9) -> np.ndarray:
+    """A Bezier segment cut at ``frame`` without changing its shape (de
+    Casteljau): the segment from ``key`` (its ``handle_right``) to
+    ``next_key`` (its ``handle_left``), each an (frame, value) pair, handles
+    first shortened as Blender shortens them.  Exact where the handles do
+    not cross in time (Blender's automatic handles reach a third of the
+    segment); where they do, the halves draw nearly the same curve.  Returns five points: the
+    key's new right handle, the new key's left handle, the new key, its
+    right handle, and the next key's new left handle."""
+    p1, p4 = np.asarray(key, dtype=np.float64), np.asarray(next_key, dtype=np.float64)
+    p2, p3 = np.asarray(handle_right, dtype=np.float64).copy(), np.asarray(handle_left, dtype=np.float64).copy()
+    width = p4[0] - p1[0]
+    if not p1[0] < frame < p4[0]:
+        raise ValueError(f"frame {frame} is not inside the segment {p1[0]}-{p4[0]}")
+    for k, h in ((p1, p2), (p4, p3)):
+        reach = abs(k[0] - h[0])
+        if reach > width:
+            h[:] = k - (width / reach) * (k - h)
+    ax, bx, cx, dx = _power(p1[0], p2[0], p3[0], p4[0])
+    lo, hi, t = 0.0, 1.0, (frame - p1[0]) / width
+    for _ in range(100):
+        fx = ((ax * t + bx) * t + cx) * t + dx - frame
+        if abs(fx) < tol:
+            break
+        lo, hi = (t, hi) if fx < 0 else (lo, t)
+        slope = (3.0 * ax * t + 2.0 * bx) * t + cx
+        step = t - fx / slope if slope > 0 else -1.0
+        t = step if lo <= step <= hi else (lo + hi) / 2
+    p12, p23, p34 = p1 + t * (p2 - p1), p2 + t * (p3 - p2), p3 + t * (p4 - p3)
+    p123, p234 = p12 + t * (p23 - p12), p23 + t * (p34 - p23)
+    mid = p123 + t * (p234 - p123)
+    mid[0] = frame
+    return np.array([p12, p123, mid, p234, p34])

@@ -14,9 +14,9 @@ from ..errors import AudioError
 from ..language.text import read_text_file
 from ..settings import LineSettings
 
-#: Manifest columns this module reads; Blender's command also reads the last three.
+#: Manifest columns this module reads; Blender's command also reads the last five.
 COLUMNS = ("audio", "transcript", "text", "alignment", "emotion", "viseme_set", "fps", "output", "language",
-           "mesh", "strip", "frame")
+           "mesh", "strip", "frame", "edits", "lock")
 FORMATS = ("json", "csv")
 #: The columns that shape a line's outputs, kept in the record of what made them.
 ROW_COLUMNS = COLUMNS[:9]
@@ -38,7 +38,7 @@ class Line:
     fps: str | None = None
     language: str | None = None
     outputs: dict[str, str] = field(default_factory=dict)   # format -> path
-    extra: dict[str, str] = field(default_factory=dict)     # mesh, strip, frame (Blender)
+    extra: dict[str, str] = field(default_factory=dict)     # mesh, strip, frame, edits, lock (Blender)
     problem: str | None = None          # why the line cannot be run
     row: dict[str, str] = field(default_factory=dict)       # its ROW_COLUMNS as written in the manifest
     record: dict | None = None          # what its outputs will be made from (see produced_by)

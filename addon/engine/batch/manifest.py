@@ -111,7 +111,8 @@ def _line(number: int, row: dict, base: Path, formats, out_dir) -> Line:
                 viseme_set=_named_or_file(base, row.get("viseme_set")),
                 fps=(row.get("fps") or "").strip() or None,
                 language=(row.get("language") or "").strip() or None,
-                extra={k: row[k].strip() for k in ("mesh", "strip", "frame") if row.get(k, "").strip()},
+                extra={k: row[k].strip() for k in ("mesh", "strip", "frame", "edits", "lock")
+                       if row.get(k, "").strip()},
                 row={k: row[k] for k in ROW_COLUMNS if row.get(k, "").strip()})
     given = [k for k in ("transcript", "text", "alignment") if getattr(line, k)]
     if line.audio is None and "strip" not in line.extra:
