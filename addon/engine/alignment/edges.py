@@ -58,8 +58,9 @@ MARGIN, REACH = 0.1, 0.3
 #: unscripted speech found between which the loop may come, and the words further out the pass
 #: holds without one (the words next to a cut may have been pulled far from their own speech).
 AROUND, CONTEXT = 3, 3
-#: That pass's beam: the default (1e-200) costs five times as much with the loop at several gaps,
-#: and finds the same loops on TIMIT sentences.
+#: That pass's beam, and the edges' pass's (:func:`script_bounds`): the default (1e-200) costs five
+#: times as much with the loop at several gaps, and finds the same loops on TIMIT sentences (and the
+#: same speech before and after the script on bench/offscript.py's 15 pairs of them).
 GAP_BEAM = 1e-60
 #: That pass's penalty for each phone of the loop: weaker than at the edges, as a cut line is one
 #: long loop whose every phone pays it; the words around the cut otherwise take the cut speech
@@ -78,7 +79,7 @@ def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],
     does (or the clip is too long, or the pass fails)."""
     if not prons or audio.duration > MAX_CLIP:
         return None, None
-    segs = loop_pass(audio, prons, 0, {0, len(prons)}, settings)
+    segs = loop_pass(audio, prons, 0, {0, len(prons)}, settings, beam=GAP_BEAM)
     if segs is None:
         return None, None
     known = {f"w{i}" for i in range(len(prons))}
