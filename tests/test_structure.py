@@ -21,7 +21,8 @@ LAYERS = [
     ["errors", "datafile", "framerate", "smoothing", "fcurve_eval"],
     ["language", "resampling", "wavstream", "decoders", "audio", "pauses"],
     ["visemes", "conventions", "presets", "prosody", "weights", "arousal", "alignment", "importers"],
-    ["coarticulation", "emotion_track", "expression", "settings", "render", "mapping", "key_reduction", "pose_blend"],
+    ["coarticulation", "emotion_track", "expression", "settings", "render", "mapping", "key_reduction", "pose_blend",
+     "gestures"],
     ["output", "pipeline", "learning", "keys", "edits"],
     ["batch", "cli", "arousal_cli", "__main__"],
 ]

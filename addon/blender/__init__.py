@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import bpy
 
-from . import command, edits_ui, learning, operators, panel, preset_ui, props
+from . import command, edits_ui, gestures_ui, learning, operators, panel, preset_ui, props
 
-_classes = operators.classes + learning.classes + preset_ui.classes + panel.classes + edits_ui.classes
+_classes = (operators.classes + learning.classes + preset_ui.classes + panel.classes + edits_ui.classes
+            + gestures_ui.classes)
 _cli_handle = None
 
 

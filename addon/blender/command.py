@@ -80,6 +80,10 @@ def parser() -> argparse.ArgumentParser:
                          "sound (keep), or dropped (discard); default: the scene's panel (keep)")
     ap.add_argument("--lock", metavar="FIRST-LAST",
                     help="frames whose keys are left exactly as they are (none: no lock; default: the panel's)")
+    ap.add_argument("--no-gestures", action="store_true",
+                    help="key no blinks, gaze or head motion (default: the scene's panel, on)")
+    ap.add_argument("--gesture-seed", type=int, default=None, metavar="N",
+                    help="another seed gives a line other blinks, glances and head motion (default: the panel's)")
     out = ap.add_mutually_exclusive_group()
     out.add_argument("--save", action="store_true", help="save the .blend in place")
     out.add_argument("--output", metavar="FILE.blend", help="save to this file")
@@ -192,7 +196,8 @@ def execute(argv: list[str]) -> int:
             raise UsageError("--audio needs --mesh: the face mesh to key")
         fixed = _fixed_text(args)
         options = run.options(scene, args.emotion, args.coarticulation, args.tolerance, args.dictionary,
-                              args.language, hand_edits=args.edits, lock=args.lock)
+                              args.language, hand_edits=args.edits, lock=args.lock,
+                              gestures=False if args.no_gestures else None, gesture_seed=args.gesture_seed)
         mesh = None
         if args.mesh:
             mesh = bpy.data.objects.get(args.mesh)

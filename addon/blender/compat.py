@@ -183,6 +183,12 @@ def action_fcurves(action) -> list:
     return out
 
 
+def fcurves_of(id_data) -> list:
+    """The F-curves of the action animating ``id_data`` (its slot's, on a slotted action)."""
+    bag = _channelbag(id_data, create=False)
+    return list(bag.fcurves) if bag is not None else []
+
+
 def remove_fcurve(id_data, fc) -> None:
     bag = _channelbag(id_data, create=False)
     if bag is not None:

@@ -217,9 +217,9 @@ def _key_channels(id_data, rec: dict, names: list[str], channels: list[tuple[str
 RIG_RECORD = "emotive_lipsync_keys"
 
 
-def _rig_record(obj) -> dict:
+def _rig_record(obj, record: str = RIG_RECORD) -> dict:
     try:
-        rec = json.loads(obj.get(RIG_RECORD, "{}"))
+        rec = json.loads(obj.get(record, "{}"))
     except (TypeError, ValueError):
         rec = {}
     rec.setdefault("ranges", {})
@@ -257,8 +257,50 @@ def write_rig(obj, channels: list[tuple[str, int]], values: np.ndarray, first_fr
     return counts
 
 
-def _clear_rig(obj) -> dict:
-    rec = _rig_record(obj)
+def write_owned(id_data, record: str, channels: list[tuple[str, int]], values: np.ndarray, first_frame: int,
+                tolerance: float = 0.0, label: str = "", owner: str = "") -> dict:
+    """Key ``values`` (frames x channels) on ``channels`` (data path, index)
+    of ``id_data`` (an object) as :func:`write_rig` does, recorded under its
+    own ``record`` property (the gestures' bones and object turns, kept
+    apart from a rig's lip sync); ``owner`` names the object whose run
+    wrote them, for its Clear.  Channels an earlier run recorded there over
+    these frames and this one does not key lose those keys."""
+    rec = _rig_record(id_data, record)
+    last = first_frame + values.shape[0] - 1
+    names = [f"{index}:{path}" for path, index in channels]
+    dropped = 0
+    for name, spans in rec["ranges"].items():
+        fc = compat.find_fcurve(id_data, *_channel(name)) if name not in names else None
+        for a, b in spans if fc is not None else []:
+            lo, hi = max(a, first_frame), min(b, last)
+            if lo <= hi:
+                dropped += replace_range(fc, lo, hi)
+    counts = _key_channels(id_data, rec, names, channels, values, first_frame, tolerance,
+                           f"{id_data.name}_LipSync", label)
+    counts["replaced"] += dropped
+    if owner:
+        rec["owner"] = owner
+    id_data[record] = json.dumps(rec)
+    return counts
+
+
+def record_owner(id_data, record: str) -> str | None:
+    """Which object's run wrote the keys recorded under ``record`` (None: none recorded)."""
+    return _rig_record(id_data, record).get("owner", "") if record in id_data else None
+
+
+def recorded_ranges(id_data, record: str) -> dict[str, list[list[int]]]:
+    """Channel ("index:data path") -> the frame ranges recorded under ``record``."""
+    return _rig_record(id_data, record)["ranges"] if record in id_data else {}
+
+
+def clear_owned(id_data, record: str) -> dict:
+    """Remove the keys recorded under ``record`` (see :func:`write_owned`)."""
+    return _clear_rig(id_data, record) if record in id_data else {"keys": 0, "fcurves_removed": 0}
+
+
+def _clear_rig(obj, record: str = RIG_RECORD) -> dict:
+    rec = _rig_record(obj, record)
     removed = dropped = 0
     for name, spans in rec["ranges"].items():
         fc = compat.find_fcurve(obj, *_channel(name))
@@ -269,7 +311,7 @@ def _clear_rig(obj) -> dict:
         if name in rec["created"] and len(fc.keyframe_points) == 0 and not fc.modifiers:
             compat.remove_fcurve(obj, fc)
             dropped += 1
-    del obj[RIG_RECORD]
+    del obj[record]
     return {"keys": removed, "fcurves_removed": dropped}
 
 

@@ -11,13 +11,13 @@ from __future__ import annotations
 import os
 
 import bpy
-from bpy.props import FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
 
 from ..engine import mapping as mapping_mod
 from ..engine import visemes
 from ..engine.errors import LipSyncError
 from ..engine.language.text import read_text_file
-from . import compat, edits, jobs, keying, run, sources
+from . import compat, edits, gestures, jobs, keying, run, sources
 
 
 def face(context, name: str = ""):
@@ -37,11 +37,13 @@ def face(context, name: str = ""):
 
 
 def _options(context, emotion: str, coarticulation: str, tolerance: float, hand_edits: str = "",
-             lock: str = "") -> run.Options:
+             lock: str = "", no_gestures: bool = False) -> run.Options:
     """An operator's Emotion, Coarticulation, Tolerance, Hand Edits and Lock
-    Frames ("" and -1: the panel's)."""
+    Frames ("" and -1: the panel's); No Gestures turns the gestures off
+    (else the panel's Gestures setting)."""
     return run.options(context.scene, emotion or None, coarticulation or None, tolerance if tolerance >= 0 else None,
-                       hand_edits=hand_edits.strip().lower() or None, lock=lock or None)
+                       hand_edits=hand_edits.strip().lower() or None, lock=lock or None,
+                       gestures=False if no_gestures else None)
 
 
 #: The operators' Hand Edits and Lock Frames (see :mod:`.edits`).
@@ -49,6 +51,8 @@ _HAND_EDITS = dict(name="Hand Edits", description="keep: lay your changes to the
                                                   "ones; discard: key afresh (empty: the panel's)")
 _LOCK = dict(name="Lock Frames", description="FIRST-LAST: frames whose keys Generate leaves as they are "
                                              "(none: no lock; empty: the panel's)")
+_NO_GESTURES = dict(name="No Gestures", default=False,
+                    description="Key no blinks, gaze or head motion (off: the panel's Gestures setting)")
 
 
 class _Progress:
@@ -94,6 +98,7 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
                              description="Key reduction tolerance; 0 keys every frame (-1: the panel's)")
     hand_edits: StringProperty(**_HAND_EDITS)
     lock: StringProperty(**_LOCK)
+    no_gestures: BoolProperty(**_NO_GESTURES)
 
     def _inputs(self, context) -> tuple[sources.LineInputs, run.Options]:
         """The line and how to lip-sync it: the properties, else the panel's settings."""
@@ -102,7 +107,8 @@ class LIPSYNC_OT_generate(jobs.ModalJob, bpy.types.Operator):
                                "(-1: the panel's start frame)")
         st = context.scene.emotive_lipsync
         obj = face(context, self.mesh)
-        options = _options(context, self.emotion, self.coarticulation, self.tolerance, self.hand_edits, self.lock)
+        options = _options(context, self.emotion, self.coarticulation, self.tolerance, self.hand_edits, self.lock,
+                           self.no_gestures)
         from_file = self.filepath or (not self.strip and st.source == "FILE")
         line = sources.line_inputs(context.scene, strip=self.strip or st.strip,
                                    audio=(self.filepath or st.audio_file) if from_file else None,
@@ -150,6 +156,7 @@ property, else the mesh its name starts with)"""
                                                                          "(-1: the panel's)")
     hand_edits: StringProperty(**_HAND_EDITS)
     lock: StringProperty(**_LOCK)
+    no_gestures: BoolProperty(**_NO_GESTURES)
 
     def execute(self, context):
         scene = context.scene
@@ -159,7 +166,7 @@ property, else the mesh its name starts with)"""
             return {"CANCELLED"}
         try:
             options = _options(context, self.emotion, self.coarticulation, self.tolerance, self.hand_edits,
-                               self.lock)
+                               self.lock, self.no_gestures)
             fallback = bpy.data.objects.get(self.mesh) if self.mesh else None
             if self.mesh and fallback is None:
                 raise LipSyncError(f"no object named {self.mesh!r}")
@@ -214,13 +221,13 @@ yourself elsewhere stay"""
         # The character's other meshes keyed with the face (teeth ...) go too.
         also = run.companions(obj, _shape_key_names(obj)) if obj.type == "MESH" else []
         targets = [o for o in [obj] + also if keying.lipsynced(o)]
-        if not targets:
+        if not targets and not gestures.wrote(obj):
             self.report({"WARNING"}, f"{obj.name!r} has no lip sync made by this add-on")
             return {"CANCELLED"}
-        removed = sum(keying.clear(o)["keys"] for o in targets)
+        removed = sum(keying.clear(o)["keys"] for o in targets) + gestures.clear(obj)
         for o in targets:   # the curves remembered for hand edits go with the keys
             edits.forget(o)
-        self.report({"INFO"}, f"Removed {removed} lip-sync keys from {', '.join(o.name for o in targets)}")
+        self.report({"INFO"}, f"Removed {removed} lip-sync keys from {', '.join(o.name for o in targets or [obj])}")
         return {"FINISHED"}
 
 

@@ -182,6 +182,11 @@ class LIPSYNC_PG_scene(bpy.types.PropertyGroup):
     ])
     lock_frames: BoolProperty(name="Lock Frames", default=False,
                               description="Leave the keys of these frames exactly as they are when Generating")
+    gestures: BoolProperty(name="Gestures", default=True,
+                           description="Blinks, gaze, head and neck motion and brow raises that follow the speech "
+                                       "(their numbers are the emotion preset's)")
+    gesture_seed: IntProperty(name="Seed", default=0, min=0,
+                              description="Another seed gives the same line other blinks, glances and head motion")
     lock_first: IntProperty(name="First", default=1, description="First locked frame")
     lock_last: IntProperty(name="Last", default=1, description="Last locked frame")
 

@@ -19,6 +19,7 @@ from ..engine.output import Result
 from ..engine.errors import LipSyncError
 from ..engine.settings import LineSettings
 from . import compat, edits, emotion_markers, keying, rig, userdata
+from . import gestures as gestures_bl
 from .sources import Clip, LineInputs, scene_fps
 
 
@@ -36,7 +37,7 @@ class Options:
 
 def options(scene, emotion: str | None = None, coarticulation: str | None = None, tolerance: float | None = None,
             dictionary: str | None = None, language: str | None = None, hand_edits: str | None = None,
-            lock: str | None = None) -> Options:
+            lock: str | None = None, gestures: bool | None = None, gesture_seed: int | None = None) -> Options:
     """How to lip-sync: each value given (an operator's property, a
     command-line argument), else the scene's Lip Sync settings; the frame
     rate is the scene's.
@@ -47,7 +48,8 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     Keys is on).  Paths may start with ``//`` (relative to the .blend).
     ``hand_edits`` is ``keep`` or ``discard``; ``lock`` the frames to leave
     as they are, ``"FIRST-LAST"`` (``"none"``: no lock); without them the
-    panel's Hand Edits settings."""
+    panel's Hand Edits settings.  ``gestures`` (blinks, gaze, head) and
+    ``gesture_seed``: without them the panel's Gestures settings."""
     st = scene.emotive_lipsync
     preset = userdata.load_preset(emotion) if emotion else userdata.panel_preset(st)
     if tolerance is None:
@@ -57,7 +59,9 @@ def options(scene, emotion: str | None = None, coarticulation: str | None = None
     dictionary = dictionary or st.dictionary
     line = LineSettings.of(preset, coarticulation=coarticulation or st.coarticulation, fps=scene_fps(scene),
                            dictionary=bpy.path.abspath(dictionary) if dictionary else None,
-                           language=language or st.language.strip() or None, emotion_fade=st.emotion_fade)
+                           language=language or st.language.strip() or None, emotion_fade=st.emotion_fade,
+                           gestures=st.gestures if gestures is None else bool(gestures),
+                           gesture_seed=st.gesture_seed if gesture_seed is None else int(gesture_seed))
     mode = edits.check_mode(hand_edits or st.hand_edits.lower())
     locked = edits.parse_lock(lock) if lock is not None else \
         (edits.check_lock((st.lock_first, st.lock_last)) if st.lock_frames else None)
@@ -88,6 +92,10 @@ class Summary:
     unscripted_seconds: float = 0.0  # speech the transcript leaves out, animated from recognition
     recognized: bool = False        # no transcript: every word was recognised
     driven: str = "shape keys"                               # what ``shape_keys`` counts
+    blinks: int = 0                                          # blinks keyed (gestures)
+    gestures: list[str] = field(default_factory=list)        # the shape keys and bones the gestures keyed
+    gesture_missing: list[str] = field(default_factory=list)  # what the target has no channel for, in words
+    gesture_kept: list[str] = field(default_factory=list)    # gesture channels left to the user's animation
 
     def message(self) -> str:
         est = f", {self.estimated_words} of {self.words} words placed by estimate" if self.estimated_words else ""
@@ -106,6 +114,12 @@ class Summary:
             face += f"; no shape key shows {', '.join(self.no_key)} (left out)"
         if self.kept:
             face += f"; kept your animation on {', '.join(self.kept)} (not keyed)"
+        if self.gestures:
+            face += f"; gestures ({self.blinks} blink{'s' if self.blinks != 1 else ''}) on {', '.join(self.gestures)}"
+        if self.gesture_missing:
+            face += f"; no channel for {', '.join(self.gesture_missing)}"
+        if self.gesture_kept:
+            face += f"; kept your animation on {', '.join(self.gesture_kept)} (no gestures there)"
         if self.edits:
             face += f"; {self.edits}"
         return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} {self.driven}{also}, "
@@ -350,6 +364,8 @@ def plan(scene, line: LineInputs, options: Options) -> Plan:
                                             prefer=obj.emotive_lipsync.convention)
     driven = {k for mix in mp.values() for k in mix} | set(closure.relative) | \
         {k for mix in face.mapping.values() for k in mix}
+    if options.line.gestures and obj.type == "MESH":
+        driven |= set(gestures_bl.channels(obj).shape_keys.values())
     also = [o.name for o in companions(obj, driven)] if options.whole_character and obj.type == "MESH" else []
     find = userdata.finder()
     marks = emotion_markers.changes(scene, clip.first_frame, clip.audio.duration, scene_fps(scene), find)
@@ -375,6 +391,19 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     face = plan.expression.mapping
     animated = keying.user_animated(obj, sorted({k for mix in face.values() for k in mix}))
     line = keys.mesh_keys(result, plan.mapping, plan.closure, face, animated)
+    found = gestures_bl.channels(obj)
+    if result.gestures is not None:
+        brows = {k for u in ("AU1", "AU2") for k in face.get(u, {})}
+        own = keying.user_animated(obj, sorted(set(found.shape_keys.values()) | brows))
+        turning = gestures_bl.animated(obj, found)
+        line = keys.with_gestures(line, result.gestures, found, face, own + turning,
+                                  head_elsewhere=gestures_bl.lone_head(obj))
+        if gestures_bl.OBJECT_TURN in turning:
+            line.gesture_kept.append(f"{obj.name}'s rotation")
+    # Gesture keys an earlier run wrote here and this one does not (gestures
+    # off, a channel now the user's own) go, as the expression's do.
+    user = set(keying.user_animated(obj, sorted(set(found.shape_keys.values()))))
+    line.dropped += sorted(set(found.shape_keys.values()) - set(line.names) - user - set(line.dropped))
     names, values = line.names, line.table()
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:
@@ -382,8 +411,9 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
                            "nothing was keyed")
     report = edits.Report()
     counts = _write(obj, names, values, plan, result, report, line.dropped)
+    turned = gestures_bl.write(obj, line, result.gestures, clip.first_frame, plan.options.tolerance, clip.label)
     also = []
-    only_face = set(line.driven_only_by(keys.EXPRESSION))
+    only_face = set(line.driven_only_by(keys.EXPRESSION)) | set(line.driven_only_by(keys.GESTURE))
     for name in plan.also:
         other = bpy.data.objects.get(name)
         have = set(check_mesh(other)) if other is not None and other.type == "MESH" and \
@@ -405,7 +435,16 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
                    last_frame=counts["last_frame"], shape_keys=len(names), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0}, also=also,
                    warnings=list(result.warnings), expression=line.units, expression_keys=line.expression_keys,
-                   no_key=line.no_key, kept=line.kept, edits=report.message(), **_heard(words, result))
+                   no_key=line.no_key, kept=line.kept, edits=report.message(), **_gestures(line, result, turned),
+                   **_heard(words, result))
+
+
+def _gestures(line: keys.LineKeys, result: Result, turned: list[str]) -> dict:
+    """The Summary's account of the gestures."""
+    if result.gestures is None:
+        return {}
+    return {"blinks": line.blinks, "gestures": line.gesture_keys + turned, "gesture_missing": line.gesture_missing,
+            "gesture_kept": line.gesture_kept}
 
 
 def _write(obj, names: list[str], values, plan: Plan, result: Result, report: edits.Report,
@@ -442,13 +481,19 @@ def _key_rig(obj, plan: Plan, analysis: Analysis, t0: float) -> Summary:
     paths, curves = rig.channels(obj, line.names, line.table(), line.closing, line.closure)
     report = edits.Report()
     counts = _write(obj, [f"{index}:{path}" for path, index in paths], curves, plan, result, report)
+    if result.gestures is not None:
+        found = gestures_bl.channels(obj)
+        found.shape_keys.clear()   # an armature's own gestures are its bones
+        line = keys.with_gestures(line, result.gestures, found, animated=gestures_bl.animated(obj, found))
+    turned = gestures_bl.write(obj, line, result.gestures, clip.first_frame, plan.options.tolerance, clip.label)
     t1 = time.perf_counter()
     words = result.alignment.words
     return Summary(mesh=obj.name, label=clip.label, seconds=t1 - plan.started, first_frame=counts["first_frame"],
                    last_frame=counts["last_frame"], shape_keys=len(line.channels), keys=counts["keys"],
                    replaced=counts["replaced"], timings={"engine": analysis.seconds, "keying": t1 - t0},
                    warnings=list(result.warnings), edits=report.message(),
-                   driven=f"poses and properties ({len(paths)} bone and property channels)", **_heard(words, result))
+                   driven=f"poses and properties ({len(paths)} bone and property channels)",
+                   **_gestures(line, result, turned), **_heard(words, result))
 
 
 def generate(scene, line: LineInputs, options: Options, progress=None) -> Summary:

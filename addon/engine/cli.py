@@ -32,6 +32,10 @@ def _style_options(p: argparse.ArgumentParser, per_line: bool) -> None:
     p.add_argument("--fps", default="30",
                    help=f"frames per second{unless}: 24, 25, 30, 60, 23.976, 29.97, 24000/1001 ... (default: 30)")
     p.add_argument("--dictionary", metavar="FILE", help="user pronunciation dictionary (CMU format)")
+    p.add_argument("--no-gestures", action="store_true",
+                   help="leave out the gestures beside speech: blinks, gaze, head and brow motion")
+    p.add_argument("--gesture-seed", type=int, default=0, metavar="N",
+                   help="another seed gives a line other blinks, glances and head motion (default: 0)")
     p.add_argument("--language", metavar="CODE", default="en",
                    help=f"language of the transcript{unless}: an ISO 639-1 or 639-3 code or a BCP-47 tag "
                         "(de, deu, pt-BR, zh, ja ...; default: en); 'list' shows them all")
@@ -53,7 +57,8 @@ def _line_settings(args, **more) -> LineSettings:
     try:
         return LineSettings.of(args.emotion, viseme_set=args.viseme_set, coarticulation=args.coarticulation,
                                fps=args.fps, dictionary=args.dictionary, language=args.language,
-                               emotion_fade=args.emotion_fade, **more)
+                               emotion_fade=args.emotion_fade, gestures=not args.no_gestures,
+                               gesture_seed=args.gesture_seed, **more)
     except SettingError as exc:
         raise LipSyncError(f"--{exc.option.replace('_', '-')}: {exc}") from None
 

@@ -15,10 +15,12 @@ and the poses that shut the lips are named (:func:`closing_names`) for
 the blending of the bones.
 
 The result, :class:`LineKeys`, is a list of :class:`Channel` values on the
-line's frames.  What later moves the face beside speech and the expression
-(blinks, gaze, head turns) adds channels with drivers of its own, and what
-shifts or warps the keys (hand edits kept over a new run) maps channels to
-channels; the Blender layer keys whatever channels it is given.
+line's frames.  The gestures beside speech (:func:`with_gestures`: blinks
+and gaze on shape keys, brow raises on the expression's brow keys) add
+channels driven by :data:`GESTURE`, and name the bones that turn (head,
+neck, eyes) with their turns; what shifts or warps the keys (hand edits
+kept over a new run) maps channels to channels; the Blender layer keys
+whatever channels it is given.
 """
 
 from __future__ import annotations
@@ -28,13 +30,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import conventions, expression, visemes
+from . import conventions, expression, gestures, visemes
 from . import mapping as mapping_mod
 from .output import Result
 
 #: What drives a channel.
 SPEECH = "speech"
 EXPRESSION = "expression"
+GESTURE = "gesture"
 
 
 @dataclass
@@ -66,6 +69,12 @@ class LineKeys:
     dropped: list[str] = field(default_factory=list)
     closing: list[str] = field(default_factory=list)          # the names that shut the lips (/p b m)
     closure: np.ndarray = field(default_factory=lambda: np.zeros(0))   # per frame: how shut the lips are, 0-1
+    #: The bones the gestures turn: bone -> (frames, 4) quaternions in the character's frame.
+    turns: dict[str, np.ndarray] = field(default_factory=dict)
+    gesture_keys: list[str] = field(default_factory=list)      # the shape keys the gestures drive
+    blinks: int = 0                                            # blinks keyed (0: no blink key, or none in the line)
+    gesture_kept: list[str] = field(default_factory=list)      # gesture channels left to the user's animation
+    gesture_missing: list[str] = field(default_factory=list)   # what the target has no channel for, in words
 
     @property
     def frames(self) -> int:
@@ -143,4 +152,49 @@ def rig_keys(result: Result, mapping: dict[str, dict[str, float]], closure: conv
                     closing=closing_names(result.viseme_set, mapping), closure=result.closure)
 
 
-__all__ = ["Channel", "EXPRESSION", "LineKeys", "SPEECH", "closing_names", "mesh_keys", "rig_keys"]
+def with_gestures(line: LineKeys, motion: gestures.Motion | None, found: gestures.Channels,
+                  face: dict[str, dict[str, float]] | None = None, animated: Collection[str] = (),
+                  head_elsewhere: bool = False) -> LineKeys:
+    """``line`` with the gestures of ``motion`` on the channels ``found``
+    (:func:`.gestures.match`): the blink and look keys, the brow raises on
+    the keys ``face`` shows the brow units with (on top of the expression
+    there: the larger of the two), and the bones' turns.  Shape keys and
+    bones in ``animated`` (the user's own animation) are left alone and
+    listed in ``gesture_kept``; ``head_elsewhere``: the head turns by other
+    means than a bone (a lone head mesh's object).  With no motion (gestures
+    off) ``line`` is returned as it is."""
+    if motion is None:
+        return line
+    animated = set(animated)
+    curves = gestures.shape_key_curves(motion, found)
+    for unit in gestures.table()["brow_units"]:
+        for key, w in (face or {}).get(unit, {}).items():
+            v = np.clip(motion.brow * w, 0, 1)
+            curves[key] = np.maximum(curves[key], v) if key in curves else v
+    by_name = {c.name: c for c in line.channels}
+    for key, values in curves.items():
+        if key in animated:
+            line.gesture_kept.append(key)
+            continue
+        if key in by_name:
+            c = by_name[key]
+            if SPEECH in c.drivers:
+                continue   # speech owns its keys
+            c.values = np.maximum(c.values, values)
+            c.drivers = c.drivers + (GESTURE,)
+        else:
+            line.channels.append(Channel(key, np.asarray(values, dtype=float), (GESTURE,)))
+        line.gesture_keys.append(key)
+    for bone, q in gestures.bone_turns(motion, found).items():
+        if bone in animated:
+            line.gesture_kept.append(bone)
+        else:
+            line.turns[bone] = q
+    line.gesture_missing = found.missing(head_elsewhere)
+    lids = {k for role, k in found.shape_keys.items() if role.startswith("blink")}
+    line.blinks = len(motion.blinks) if lids & set(line.gesture_keys) else 0
+    return line
+
+
+__all__ = ["Channel", "EXPRESSION", "GESTURE", "LineKeys", "SPEECH", "closing_names", "mesh_keys", "rig_keys",
+           "with_gestures"]

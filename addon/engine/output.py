@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import arousal as arousal_mod
+from . import gestures as gestures_mod
 from . import visemes
 from .alignment import Alignment
 from .errors import LipSyncError
@@ -75,6 +76,8 @@ class Result:
     #: The expression on the whole face: FACS action unit -> per frame, 0-1 (none under neutral).
     expression: dict[str, np.ndarray] = field(default_factory=dict)
     language: str = "en"       # the transcript's language (its code in data/languages.json)
+    #: Blinks, gaze, head and brows beside speech (None: turned off).
+    gestures: gestures_mod.Motion | None = None
 
     def to_dict(self) -> dict:
         al = self.alignment
@@ -102,6 +105,7 @@ class Result:
             "emotions": self.emotions or [{"emotion": self.emotion, "time": 0.0, "fade": None}],
             "expression": {unit: np.round(v, 4).tolist() for unit, v in self.expression.items()},
             "unscripted": [{"start": round(a, 4), "end": round(b, 4), "text": t} for a, b, t in al.unscripted],
+            "gestures": self.gestures.to_dict() if self.gestures is not None else None,
         }
 
     def write_json(self, path: str | os.PathLike) -> None:
@@ -114,14 +118,17 @@ class Result:
 
     def write_csv(self, path: str | os.PathLike) -> None:
         """The frame table: frame, time, one column per viseme, then one per
-        expression action unit (none under neutral)."""
+        expression action unit (none under neutral), then the gestures'
+        tracks (:data:`.gestures.Motion.TRACKS`; none when turned off)."""
         units = list(self.expression)
+        tracks = self.gestures.tracks() if self.gestures is not None else {}
         with open(path, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
-            w.writerow(["frame", "time"] + list(self.viseme_set.visemes) + units)
+            w.writerow(["frame", "time"] + list(self.viseme_set.visemes) + units + list(tracks))
             for k, (t, row) in enumerate(zip(self.times, self.curves)):
                 w.writerow([k, f"{t:.6f}"] + [f"{x:.4f}" for x in row]
-                           + [f"{self.expression[u][k]:.4f}" for u in units])
+                           + [f"{self.expression[u][k]:.4f}" for u in units]
+                           + [f"{v[k]:.4f}" for v in tracks.values()])
 
 
 def check_output_path(path: str | os.PathLike, what: str = "output", inputs=()) -> None:

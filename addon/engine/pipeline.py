@@ -11,7 +11,8 @@ which lives in its own module and is callable on its own:
 * the emotion over the line: its preset (one of the line's
   :class:`.settings.LineSettings`), inline tags and markers
   (:mod:`.presets`, :mod:`.emotion_track`);
-* the curves (:mod:`.render`), returned as a :class:`.output.Result`.
+* the curves (:mod:`.render`) and the gestures beside speech (blinks,
+  gaze, head: :mod:`.gestures`), returned as a :class:`.output.Result`.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 
 from . import arousal as arousal_mod
 from . import audio as audio_mod
-from . import coarticulation, emotion_track, presets, prosody
+from . import coarticulation, emotion_track, gestures, presets, prosody
 from .alignment import AlignSettings, Alignment, align_audio
 from .alignment.parallel import Background
 from .alignment.recognize import recognize
@@ -188,11 +189,17 @@ def analyze(audio: str | os.PathLike | Audio, text: str | None = None, settings:
         notes.append("no voiced speech found: pitch plays no part in the weights (whispered?)")
     closure = coarticulation.closure_track(r.times, [(p.phone, p.start, p.end) for p in al.phones])
     emotions = emotion_track.timeline(settings.emotion_label, changes, settings.emotion_fade)
+    motion = None
+    if settings.gestures:
+        # The gestures follow the emotion the line starts with.
+        start = next((c.preset for c in sorted(changes, key=lambda c: c.time) if c.time <= 0), settings.emotion)
+        motion = gestures.compute(al, r.times, tracks.times, tracks.pitch, tracks.intensity, start.gestures,
+                                  settings.gesture_seed)
     return Result(duration=al.duration, fps=settings.fps, viseme_set=vset, emotion=emotions[0]["emotion"],
                   model=settings.coarticulation, alignment=al, pitch=r.pitch, intensity=r.intensity,
                   weights=r.weights, times=r.times, curves=r.curves, notes=notes, closure=closure,
                   warnings=list(snd.notes) + list(al.warnings), arousal=voice, emotions=emotions,
-                  expression=r.expression, language=lang.code)
+                  expression=r.expression, language=lang.code, gestures=motion)
 
 
 __all__ = ["analyze", "measure_voice", "MIN_SPEECH"]

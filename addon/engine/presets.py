@@ -37,6 +37,18 @@ Fields (see ``data/presets/neutral.json`` for values):
     other visemes (0-1); closures always reach their own target.
 ``smoothing``  Gaussian smoothing of the curves, seconds (0 = none).
 ``gain``  overall multiplier on every weight before clamping to [0, 1].
+``gestures.<field>``  the face's life beside speech (:mod:`.gestures`):
+    ``blink_rate`` (a minute), ``blink_duration`` (s), ``blink_at_pauses``
+    (share of blinks moved to a pause), ``double_blink`` (chance),
+    ``gaze_interval`` (mean s between saccades), ``gaze_range`` and
+    ``gaze_down`` (degrees: spread and mean of the gaze below level),
+    ``look_away`` (chance at a phrase start) and ``look_away_angle``
+    (degrees), ``lid_follow`` (how far the lids follow the gaze down),
+    ``head_range`` (degrees of head motion in speech),
+    ``head_follow_voice`` (share of it that follows loudness), ``nod``
+    (degrees on an accent), ``sway`` (degrees of slow sway), ``pause_calm``
+    (head motion in pauses against speech) and ``brow_raise`` (0-1 on an
+    accent).  Every preset has them all: ``neutral`` says each.
 ``expression.<unit>``  the emotion on the whole face: FACS action units
     (``AU12``, lip corner puller) and their strengths, 0 to 1, such as
     ``{"AU6": 0.5, "AU12": 0.6}`` for happy.  The units and how the
@@ -52,6 +64,7 @@ JSON document back, field for field.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import os
 from dataclasses import dataclass, field
@@ -103,7 +116,8 @@ def validate(p: dict, source: str = "preset") -> dict:
                                   f"is not a preset field (expected one of: {', '.join(allowed)})")
 
     no_extra(p, ("name", "description", "base", "weights", "rules", "dominance", "closure", "smoothing", "gain",
-                 "learned", "expression"), "")
+                 "learned", "expression", "gestures"), "")
+    _validate_gestures(p, source)
     if "expression" in p:
         _validate_expression(p, source)
     if "learned" in p:
@@ -222,6 +236,39 @@ class Dominance:
     classes: dict[str, DominanceShape]
 
 
+#: The fields of ``gestures``: (lowest, highest) allowed.
+GESTURE_RANGES = {
+    "blink_rate": (0.0, 60.0), "blink_duration": (0.08, 0.5), "blink_at_pauses": (0.0, 1.0),
+    "double_blink": (0.0, 0.5), "gaze_interval": (0.3, 10.0), "gaze_range": (0.0, 15.0),
+    "gaze_down": (-10.0, 15.0), "look_away": (0.0, 1.0), "look_away_angle": (0.0, 15.0),
+    "lid_follow": (0.0, 1.0), "head_range": (0.0, 10.0), "head_follow_voice": (0.0, 1.0), "nod": (0.0, 10.0),
+    "sway": (0.0, 5.0), "pause_calm": (0.0, 1.0), "brow_raise": (0.0, 1.0),
+}
+
+
+@dataclass(frozen=True)
+class Gestures:
+    """``gestures``: blinks, gaze, head and brows beside speech (the module
+    docstring says what each field means)."""
+
+    blink_rate: float = 18.0
+    blink_duration: float = 0.2
+    blink_at_pauses: float = 0.85
+    double_blink: float = 0.08
+    gaze_interval: float = 2.2
+    gaze_range: float = 5.0
+    gaze_down: float = 0.0
+    look_away: float = 0.5
+    look_away_angle: float = 9.0
+    lid_follow: float = 0.5
+    head_range: float = 2.0
+    head_follow_voice: float = 0.9
+    nod: float = 2.5
+    sway: float = 0.8
+    pause_calm: float = 0.2
+    brow_raise: float = 0.3
+
+
 @dataclass
 class Learned:
     """What a preset trained from animation adds: its viseme set and the
@@ -246,6 +293,7 @@ class Preset:
     description: str = ""
     learned: Learned | None = None
     expression: dict[str, float] = field(default_factory=dict)   # FACS unit -> strength, 0-1
+    gestures: Gestures = field(default_factory=Gestures)
 
     @classmethod
     def from_dict(cls, doc: dict, source: str = "preset") -> Preset:
@@ -266,7 +314,8 @@ class Preset:
             closure_strength=d["closure"]["strength"], smoothing=d["smoothing"], gain=d["gain"],
             learned=Learned(le["viseme_set"], {v: dict(m) for v, m in le["targets"].items()}, le.get("report"))
             if le is not None else None,
-            expression=dict(d.get("expression", {})))
+            expression=dict(d.get("expression", {})),
+            gestures=Gestures(**d.get("gestures", {})))
 
     def to_dict(self) -> dict:
         """The preset as its JSON document."""
@@ -291,6 +340,7 @@ class Preset:
         })
         if self.expression:
             doc["expression"] = dict(self.expression)
+        doc["gestures"] = dataclasses.asdict(self.gestures)
         if self.learned is not None:
             doc["learned"] = {"viseme_set": self.learned.viseme_set,
                               "targets": {v: dict(m) for v, m in self.learned.targets.items()}}
@@ -344,6 +394,20 @@ def _validate_expression(p: dict, source: str) -> None:
         p["expression"] = kept
     else:
         del p["expression"]
+
+
+def _validate_gestures(p: dict, source: str) -> None:
+    """``gestures``: each field a number in its range (:data:`GESTURE_RANGES`);
+    those left out take :class:`Gestures`' values."""
+    g = p.get("gestures", {})
+    if not isinstance(g, dict):
+        raise PresetError(source, "gestures", "must be an object of numbers (blink_rate, head_range ...)")
+    for k in g:
+        if k not in GESTURE_RANGES:
+            raise PresetError(source, f"gestures.{k}",
+                              f"is not a preset field (expected one of: {', '.join(GESTURE_RANGES)})")
+    if "gestures" in p:
+        p["gestures"] = {k: _num(source, f"gestures.{k}", v, *GESTURE_RANGES[k]) for k, v in g.items()}
 
 
 def _validate_learned(le, source: str) -> None:

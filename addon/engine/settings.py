@@ -8,8 +8,8 @@ batch runner per line, and Blender's operators and command (the panel's
 settings, which Blender wraps with its own: key reduction, the whole
 character).  :func:`.pipeline.analyze` and :func:`.render.render` read it.
 
-A new per-line option (gestures: blinks, gaze, head turns; hand edits
-kept over a re-run) is a field here, checked in
+A new per-line option (such as ``gestures`` and ``gesture_seed``) is a
+field here, checked in
 :meth:`LineSettings.__post_init__`, written in :meth:`LineSettings.to_dict`
 for a Dask worker, and read where it takes effect; the programs then pass
 it on without being changed.
@@ -47,6 +47,8 @@ class LineSettings:
     language: str | None = None          # the transcript's language, a code as the user wrote it (None: English)
     emotion_fade: float = DEFAULT_FADE   # s over which an emotion change (tag, marker) cross-fades
     align: AlignSettings = field(default_factory=AlignSettings)   # the aligner's knobs (its worker processes)
+    gestures: bool = True                # blinks, gaze, head and brows beside speech (.gestures)
+    gesture_seed: int = 0                # another seed varies the gestures of the same line
     # How the user wrote two of them: the preset's name or file ("" when it
     # was given as a preset) and the frame rate ("24000/1001").  A result is
     # labelled with the first, and a batch output's record of what made it
@@ -64,6 +66,10 @@ class LineSettings:
             object.__setattr__(self, "fps_text", str(self.fps))
         object.__setattr__(self, "fps", _check("fps", parse_fps, self.fps))
         _check("language", resolve_language, self.language)
+        if not isinstance(self.gestures, bool):
+            raise SettingError("gestures", f"gestures is on or off (true or false), got {self.gestures!r}")
+        if isinstance(self.gesture_seed, bool) or not isinstance(self.gesture_seed, int):
+            raise SettingError("gesture_seed", f"the gesture seed must be a whole number, got {self.gesture_seed!r}")
 
     @classmethod
     def of(cls, emotion: str | os.PathLike | Preset | dict = "neutral", **options) -> LineSettings:

@@ -151,6 +151,8 @@ def produced_by(line: Line, defaults: LineSettings, before: dict | None = None,
                 "viseme_set": None if line.viseme_set else defaults.viseme_set,
                 "fps": None if line.fps else defaults.fps_text,
                 "coarticulation": defaults.coarticulation, "emotion_fade": float(defaults.emotion_fade)}
+    if not defaults.gestures or defaults.gesture_seed:   # as do lines with the gestures as they come
+        settings["gestures"] = {"on": defaults.gestures, "seed": defaults.gesture_seed}
     if (line.language or defaults.language or "en") != "en":     # English lines keep the records they had
         settings["language"] = None if line.language else defaults.language
     files = {"preset": digests.preset(line.emotion) if line.emotion else digests.given_preset(defaults.emotion),

@@ -1,0 +1,235 @@
+"""The gestures beside speech on a character: blinks and gaze on its shape
+keys (keyed with the speech, see :mod:`.run`), the head, neck and eyes on
+its bones, or, for a head mesh with no armature, the head on the object's
+delta rotation (which leaves the object's own rotation to the user).
+
+The engine gives every turn as quaternions in the character's frame
+(:func:`..engine.gestures.bone_turns`); here they become each bone's own
+rotation, composed with the pose the bone holds, in the bone's rotation
+mode.  What this writes is recorded under :data:`RECORD` on the armature or
+object, apart from any lip sync of the armature itself, so *Clear* removes
+it and nothing else.  A bone or object the user animates (keys or a driver
+on its rotation that lip sync did not write) is left alone.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from mathutils import Quaternion
+
+from ..engine import gestures, keys
+from ..engine.datafile import read_object
+from . import compat, keying, userdata
+
+RECORD = "emotive_lipsync_gestures"
+#: What a lone head mesh turns by.
+OBJECT_TURN = "delta_rotation_euler"
+
+
+def _extra() -> dict | None:
+    """A studio's own channel names: gestures.json in the user's conventions folder."""
+    folder = userdata.conventions_folder()
+    path = os.path.join(folder, "gestures.json") if folder else ""
+    return read_object(path) if path and os.path.isfile(path) else None
+
+
+def armature_of(obj):
+    """The armature that moves a mesh (its Armature modifier's, else its
+    parent if that is an armature); an armature is its own."""
+    if obj.type == "ARMATURE":
+        return obj
+    for mod in obj.modifiers:
+        if mod.type == "ARMATURE" and mod.object is not None:
+            return mod.object
+    return obj.parent if obj.parent is not None and obj.parent.type == "ARMATURE" else None
+
+
+def lone_head(obj) -> bool:
+    """A head mesh with no armature and no parent: its object turns as the head."""
+    return obj.type == "MESH" and armature_of(obj) is None and obj.parent is None
+
+
+def channels(obj) -> gestures.Channels:
+    """The gesture channels of ``obj``: its shape keys, its armature's bones."""
+    key = obj.data.shape_keys if obj.type == "MESH" else None
+    names = [kb.name for kb in key.key_blocks[1:]] if key is not None else []
+    arm = armature_of(obj)
+    bones = [b.name for b in arm.data.bones] if arm is not None else []
+    return gestures.match(names, bones, _extra())
+
+
+def describe(obj) -> tuple[list[str], list[str]]:
+    """What the panel lists: the channels found, and what is missing, in words."""
+    found = channels(obj)
+    have = sorted(set(found.shape_keys.values())) + sorted(set(found.bones.values()))
+    if lone_head(obj):
+        have.append("the object's delta rotation (head)")
+    return have, found.missing(lone_head(obj))
+
+
+def _rotation_paths(name: str) -> tuple[str, ...]:
+    esc = f'pose.bones["{compat_escape(name)}"]'
+    return tuple(f"{esc}.{r}" for r in ("rotation_quaternion", "rotation_euler", "rotation_axis_angle"))
+
+
+def compat_escape(name: str) -> str:
+    import bpy
+
+    return bpy.utils.escape_identifier(name)
+
+
+def _user_keys(id_data, paths: tuple[str, ...]) -> bool:
+    """Keys or a driver on any of ``paths`` that lip sync's gestures did not write."""
+    ad = id_data.animation_data
+    if ad is not None and any(d.data_path in paths for d in ad.drivers):
+        return True
+    ours = keying.recorded_ranges(id_data, RECORD)
+    for fc in compat.fcurves_of(id_data):
+        if fc.data_path not in paths or not len(fc.keyframe_points):
+            continue
+        frames = np.array([k.co[0] for k in fc.keyframe_points])
+        inside = np.zeros(len(frames), dtype=bool)
+        for a, b in ours.get(f"{fc.array_index}:{fc.data_path}", []):
+            inside |= (frames >= a - 1e-4) & (frames <= b + 1e-4)
+        if not inside.all():
+            return True
+    return False
+
+
+def animated(obj, found: gestures.Channels) -> list[str]:
+    """The bones of ``found`` the user animates (and ``OBJECT_TURN`` for a
+    lone head the user turns)."""
+    arm = armature_of(obj)
+    out = [b for b in found.bones.values() if arm is not None and _user_keys(arm, _rotation_paths(b))]
+    if lone_head(obj) and _user_keys(obj, (OBJECT_TURN, "rotation_euler", "rotation_quaternion")):
+        out.append(OBJECT_TURN)
+    return out
+
+
+def _in_world(arm, bone) -> np.ndarray:
+    """The bone's rest axes in the world (columns), rotation only."""
+    m = (arm.matrix_world.to_3x3() @ bone.matrix_local.to_3x3()).normalized()
+    return np.array(m)
+
+
+def _as_mode(q: np.ndarray, mode: str, hold) -> tuple[str, np.ndarray]:
+    """Quaternions ``q`` (frames, 4) composed with the pose ``hold`` (a
+    Quaternion) as the rotation channels of ``mode``: (data path suffix,
+    (frames, k) values)."""
+    out = [hold @ Quaternion(row) for row in q]
+    if mode == "QUATERNION":
+        return "rotation_quaternion", np.array([tuple(x) for x in out])
+    if mode == "AXIS_ANGLE":
+        return "rotation_axis_angle", np.array([(x.angle, *x.axis) for x in out])
+    prev = None
+    eul = []
+    for x in out:
+        e = x.to_euler(mode, prev) if prev is not None else x.to_euler(mode)
+        eul.append(tuple(e))
+        prev = e
+    return "rotation_euler", np.array(eul)
+
+
+def write(obj, line: keys.LineKeys, motion, first_frame: int, tolerance: float, label: str) -> list[str]:
+    """Key the turns of ``line`` (bones) on ``obj``'s armature, or the head
+    of ``motion`` on a lone head's delta rotation; the names keyed."""
+    arm = armature_of(obj)
+    written = []
+    last = first_frame + len(line.times) - 1
+    forget(obj, first_frame, last, keep=set(line.turns) | ({OBJECT_TURN} if motion is not None else set()))
+    if arm is not None and line.turns:
+        paths, columns = [], []
+        for name, q in line.turns.items():
+            pb = arm.pose.bones.get(name)
+            if pb is None:
+                continue
+            local = gestures.in_bone_frame(q, _in_world(arm, pb.bone))
+            hold = _pose_rotation(pb, arm)
+            suffix, values = _as_mode(local, pb.rotation_mode, hold)
+            base = f'pose.bones["{compat_escape(name)}"].{suffix}'
+            for i in range(values.shape[1]):
+                paths.append((base, i))
+                columns.append(values[:, i])
+            written.append(name)
+        if paths:
+            keying.write_owned(arm, RECORD, paths, np.stack(columns, axis=1), first_frame, tolerance, label,
+                               owner=obj.name)
+    elif motion is not None and lone_head(obj) and f"{obj.name}'s rotation" not in line.gesture_kept:
+        q = gestures.character_turns(*motion.head.T)
+        local = gestures.in_bone_frame(q, np.array(obj.matrix_world.to_3x3().normalized()))
+        hold = _held(obj, OBJECT_TURN)
+        eul = []
+        prev = None
+        for row in local:
+            e = Quaternion(row).to_euler("XYZ", prev) if prev is not None else Quaternion(row).to_euler("XYZ")
+            eul.append((e.x + hold[0], e.y + hold[1], e.z + hold[2]))
+            prev = e
+        values = np.array(eul)
+        keying.write_owned(obj, RECORD, [(OBJECT_TURN, i) for i in range(3)], values, first_frame, tolerance,
+                           label, owner=obj.name)
+        written.append("head (object)")
+    return written
+
+
+def _held(obj, path: str) -> tuple[float, ...]:
+    """The value ``path`` of ``obj`` holds where gestures did not key it (its
+    value now, unless the keys there are the gestures' own: then rest)."""
+    if keying.recorded_ranges(obj, RECORD):
+        return (0.0, 0.0, 0.0)
+    return tuple(getattr(obj, path))
+
+
+def _pose_rotation(pb, arm) -> Quaternion:
+    """The pose a bone holds apart from the gestures' keys: its rotation
+    now, or rest where the gestures keyed it before."""
+    if any(k.split(":", 1)[1].startswith(f'pose.bones["{compat_escape(pb.name)}"]')
+           for k in keying.recorded_ranges(arm, RECORD)):
+        return Quaternion()
+    if pb.rotation_mode == "QUATERNION":
+        return pb.rotation_quaternion.copy()
+    if pb.rotation_mode == "AXIS_ANGLE":
+        a = pb.rotation_axis_angle
+        return Quaternion((a[1], a[2], a[3]), a[0])
+    return pb.rotation_euler.to_quaternion()
+
+
+def forget(obj, first: int, last: int, keep: set[str] = frozenset()) -> int:
+    """Remove the gestures' bone and object keys a run on ``obj`` wrote in
+    [first, last] (a new run of the line without them), but on the bones
+    and paths in ``keep``; how many keys went."""
+    removed = 0
+    for holder in {o for o in (obj, armature_of(obj)) if o is not None}:
+        if keying.record_owner(holder, RECORD) not in ("", obj.name):
+            continue
+        for name, spans in keying.recorded_ranges(holder, RECORD).items():
+            index, path = name.split(":", 1)
+            if any(path.startswith(f'pose.bones["{compat_escape(k)}"]') or path == k for k in keep):
+                continue
+            fc = compat.find_fcurve(holder, path, int(index))
+            for a, b in spans if fc is not None else []:
+                lo, hi = max(a, first), min(b, last)
+                if lo <= hi:
+                    removed += keying.replace_range(fc, lo, hi)
+    return removed
+
+
+def clear(obj) -> int:
+    """Remove the gestures' bone and object keys a run on ``obj`` wrote."""
+    removed = 0
+    for holder in {o for o in (obj, armature_of(obj)) if o is not None}:
+        owner = keying.record_owner(holder, RECORD)
+        if owner is not None and owner in ("", obj.name):
+            removed += keying.clear_owned(holder, RECORD)["keys"]
+    return removed
+
+
+def wrote(obj) -> bool:
+    """Whether a run on ``obj`` keyed gestures on its armature or object."""
+    return any(keying.record_owner(o, RECORD) in ("", obj.name) for o in (obj, armature_of(obj)) if o is not None
+               and keying.record_owner(o, RECORD) is not None)
+
+
+__all__ = ["OBJECT_TURN", "RECORD", "animated", "armature_of", "channels", "clear", "describe", "forget", "lone_head",
+           "write", "wrote"]

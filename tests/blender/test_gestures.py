@@ -1,0 +1,288 @@
+"""Gestures beside speech on real characters, driven by the operators: the
+human sample head (ARKit keys, a lone head mesh whose object turns), a
+Ready Player Me style avatar with Neck, Head and eye bones, a VRoid face.
+
+The line is the sample's "hello" said five times with pauses between
+(35 s), so that blink rates mean something; blinks are read off the keys
+the way an animator sees them (the lids more than half closed), the eyes and
+head off the bones and object Blender evaluates."""
+
+from __future__ import annotations
+
+import os
+import wave
+from importlib import import_module
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Vector
+
+from conftest import MODULE, SAMPLE, fcurve_values
+from heads import HEADS, build_head
+
+import human
+
+FPS = 30
+FIRST = 1
+HELLO = open(os.path.splitext(SAMPLE)[0] + ".txt", encoding="utf-8").read().strip()
+
+
+@pytest.fixture(scope="module")
+def take(tmp_path_factory):
+    """(path, transcript) of the long take: hello.wav five times, 0.6-1.2 s apart."""
+    with wave.open(SAMPLE) as w:
+        params, frames = w.getparams(), w.readframes(w.getnframes())
+    rate, width = params.framerate, params.sampwidth * params.nchannels
+    out = tmp_path_factory.mktemp("take") / "five_hellos.wav"
+    with wave.open(str(out), "wb") as w:
+        w.setparams(params)
+        for gap in (0.6, 1.2, 0.8, 1.0, 0.7):
+            w.writeframes(frames + b"\0" * (int(gap * rate) * width))
+    return str(out), " ".join([HELLO] * 5)
+
+
+@pytest.fixture(scope="module")
+def engine_result(take, extension):
+    """What the engine finds on the take (the same as the operator's run, which is deterministic)."""
+    pipeline = import_module(MODULE + ".engine.pipeline")
+    settings = import_module(MODULE + ".engine.settings").LineSettings.of(fps=FPS)
+    decode = import_module(MODULE + ".blender.sources").decode
+    return pipeline.analyze(decode(take[0]), take[1], settings)
+
+
+@pytest.fixture
+def empty(extension):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.fps, sc.render.fps_base = FPS, 1.0
+    return sc
+
+
+def generate(obj, take, **more):
+    result = bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", True, filepath=take[0], frame=FIRST, mesh=obj.name,
+                                              text=take[1], **more)
+    assert result == {"FINISHED"}
+
+
+def runs_above_half(values):
+    """(start s, length s) of each stretch with ``values`` above 0.5, per frame."""
+    closed = np.concatenate([[False], np.asarray(values) > 0.5, [False]])
+    edges = np.flatnonzero(np.diff(closed.astype(int)))
+    return [((a) / FPS, (b - a) / FPS) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def per_frame(obj_or_key, path, index, n):
+    compat = import_module(MODULE + ".blender.compat")
+    fc = compat.find_fcurve(obj_or_key, path, index)
+    assert fc is not None, f"no F-curve {path}[{index}]"
+    return np.array([fc.evaluate(FIRST + k) for k in range(n)])
+
+
+def check_blinks(lids, result):
+    """Human blinks on the per-frame lid values of a line."""
+    minutes = result.duration / 60
+    shut = runs_above_half(lids)
+    assert 8 <= len(shut) / minutes <= 35, len(shut) / minutes
+    assert all(0.05 <= length <= 0.5 for _, length in shut), shut
+    pauses = import_module(MODULE + ".engine.gestures").pauses(result.alignment)
+    starts = [s for s, _ in result.gestures.blinks]
+    near = [any(a - 0.35 <= s <= b + 0.35 for a, b in pauses) for s in starts]
+    assert np.mean(near) >= 0.5, (starts, pauses)
+
+
+def speech_and_pauses(result, n):
+    t = np.arange(n) / FPS
+    speaking = np.zeros(n, dtype=bool)
+    for w in result.alignment.words:
+        speaking |= (t >= w.start) & (t < w.end)
+    pause = np.zeros(n, dtype=bool)
+    for a, b in import_module(MODULE + ".engine.gestures").pauses(result.alignment):
+        if b - a >= 0.5:
+            pause |= (t >= a) & (t < b)
+    return speaking, pause
+
+
+def check_head(angles_deg, result):
+    """(frames, 3) head angles: moving in speech, calmer in pauses."""
+    speaking, pause = speech_and_pauses(result, len(angles_deg))
+    angle = np.linalg.norm(angles_deg, axis=1)
+    assert 0.7 <= angle[speaking].std() <= 8 or 0.7 <= np.sqrt(np.mean(angle[speaking] ** 2)) <= 8
+    speed = np.linalg.norm(np.diff(angles_deg, axis=0), axis=1) * FPS
+    assert speed[speaking[1:]].mean() >= 1.3 * speed[pause[1:]].mean()
+
+
+@pytest.fixture
+def human_head(empty, head_data):
+    return human.build("Human", "arkit")
+
+
+@pytest.fixture(scope="session")
+def head_data():
+    return human.head_data(human.assets())
+
+
+def test_the_sample_head_blinks_looks_and_moves(human_head, take, engine_result):
+    obj = human_head
+    generate(obj, take)
+    n = len(engine_result.times)
+    key = obj.data.shape_keys
+    left = per_frame(key, 'key_blocks["eyeBlinkLeft"].value', 0, n)
+    right = per_frame(key, 'key_blocks["eyeBlinkRight"].value', 0, n)
+    assert np.array_equal(left, right)                    # both eyes together
+    check_blinks(left, engine_result)
+    # The eyes look about, both the same way, never far.
+    out_l = per_frame(key, 'key_blocks["eyeLookOutLeft"].value', 0, n)
+    in_r = per_frame(key, 'key_blocks["eyeLookInRight"].value', 0, n)
+    assert np.allclose(out_l, in_r) and 0 < out_l.max() <= 0.6
+    # The head turns on the object's delta rotation, about the neck (the object's origin).
+    rot = np.stack([per_frame(obj, "delta_rotation_euler", i, n) for i in range(3)], axis=1)
+    assert tuple(obj.rotation_euler) == (0.0, 0.0, 0.0)   # the object's own rotation is the user's
+    check_head(np.degrees(rot), engine_result)
+    # Same line, same motion; the summary says what moved.
+    before = left.copy()
+    generate(obj, take)
+    assert np.array_equal(per_frame(key, 'key_blocks["eyeBlinkLeft"].value', 0, n), before)
+    generate(obj, take, no_gestures=True)
+    assert per_frame(key, 'key_blocks["eyeBlinkLeft"].value', 0, n).max() == 0.0
+    assert np.abs(per_frame(obj, "delta_rotation_euler", 0, n)).max() == 0.0
+
+
+def test_the_users_blink_and_head_keys_are_kept_and_clear_and_undo(human_head, take, engine_result):
+    obj = human_head
+    kb = obj.data.shape_keys.key_blocks["eyeBlinkLeft"]
+    kb.value = 0.3
+    kb.keyframe_insert("value", frame=40)
+    obj.delta_rotation_euler = (0.1, 0.0, 0.0)
+    obj.keyframe_insert("delta_rotation_euler", frame=40)
+    generate(obj, take)
+    frames, values = fcurve_values(obj, "eyeBlinkLeft")
+    assert list(frames) == [40.0] and list(values) == pytest.approx([0.3])   # nothing added
+    assert fcurve_values(obj, "eyeBlinkRight") is not None                   # the other eye still blinks
+    compat = import_module(MODULE + ".blender.compat")
+    assert len(compat.find_fcurve(obj, "delta_rotation_euler", 0).keyframe_points) == 1
+    # Clear takes the gestures with the rest and leaves the user's keys; undo brings the gestures back.
+    bpy.ops.ed.undo_push(message="before clear")
+    assert bpy.ops.emotive_lipsync.clear("EXEC_DEFAULT", True, mesh=obj.name) == {"FINISHED"}
+    obj = bpy.data.objects["Human"]
+    frames, values = fcurve_values(obj, "eyeBlinkLeft")
+    assert list(frames) == [40.0]
+    assert fcurve_values(obj, "eyeBlinkRight") is None
+    assert len(compat.find_fcurve(obj, "delta_rotation_euler", 0).keyframe_points) == 1
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["Human"]
+    assert fcurve_values(obj, "eyeBlinkRight") is not None
+
+
+def _avatar(euler_head=False):
+    """A Ready Player Me style avatar: an armature (Hips, Spine, Neck, Head,
+    LeftEye, RightEye; Y up along each bone, the character facing -Y) and a
+    head mesh with RPM's shape keys, deformed by it."""
+    arm_data = bpy.data.armatures.new("Armature")
+    arm = bpy.data.objects.new("Armature", arm_data)
+    bpy.context.scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    bones = {}
+    for name, head, tail, parent in (("Hips", (0, 0, 0.9), (0, 0, 1.1), None),
+                                     ("Spine", (0, 0, 1.1), (0, 0, 1.45), "Hips"),
+                                     ("Neck", (0, 0, 1.45), (0, 0, 1.55), "Spine"),
+                                     ("Head", (0, 0, 1.55), (0, 0, 1.75), "Neck"),
+                                     ("LeftEye", (0.03, -0.08, 1.65), (0.03, -0.1, 1.65), "Head"),
+                                     ("RightEye", (-0.03, -0.08, 1.65), (-0.03, -0.1, 1.65), "Head")):
+        b = arm_data.edit_bones.new(name)
+        b.head, b.tail = head, tail
+        if parent:
+            b.parent = bones[parent]
+        bones[name] = b
+    bpy.ops.object.mode_set(mode="OBJECT")
+    if euler_head:
+        arm.pose.bones["Head"].rotation_mode = "XYZ"
+    keys, _ = HEADS["ready_player_me"]
+    face = build_head("Wolf3D_Head", keys)
+    face.parent = arm
+    mod = face.modifiers.new("Armature", "ARMATURE")
+    mod.object = arm
+    return arm, face
+
+
+def _bone_world(arm, name, frame):
+    bpy.context.scene.frame_set(frame)
+    return arm.matrix_world @ arm.pose.bones[name].matrix
+
+
+@pytest.mark.parametrize("euler_head", [False, True], ids=["quaternion", "euler"])
+def test_a_bone_avatar_turns_its_head_neck_and_eyes(empty, take, engine_result, euler_head):
+    arm, face = _avatar(euler_head)
+    generate(face, take)
+    n = len(engine_result.times)
+    compat = import_module(MODULE + ".blender.compat")
+    paths = {fc.data_path for fc in compat.fcurves_of(arm)}
+    mode = "rotation_euler" if euler_head else "rotation_quaternion"
+    assert {f'pose.bones["Head"].{mode}', 'pose.bones["Neck"].rotation_quaternion',
+            'pose.bones["LeftEye"].rotation_quaternion', 'pose.bones["RightEye"].rotation_quaternion'} <= paths
+    rest = {b: (arm.matrix_world @ arm.data.bones[b].matrix_local) for b in ("Head", "LeftEye", "RightEye")}
+    angles, eye_angles = [], []
+    for k in range(0, n, 2):
+        m = _bone_world(arm, "Head", FIRST + k)
+        # The head's turn from rest, as (pitch down, yaw left, roll) from its axes in the world.
+        q = (rest["Head"].to_3x3().inverted() @ m.to_3x3()).to_quaternion()
+        fwd = m.to_3x3() @ rest["Head"].to_3x3().inverted() @ Vector((0, -1, 0))
+        up = m.to_3x3() @ rest["Head"].to_3x3().inverted() @ Vector((0, 0, 1))
+        angles.append((np.degrees(np.arcsin(-fwd.z)), np.degrees(np.arctan2(fwd.x, -fwd.y)),
+                       np.degrees(np.arcsin(up.x))))
+        assert q.angle < np.radians(20)
+        dirs = []
+        for eye in ("LeftEye", "RightEye"):
+            e = _bone_world(arm, eye, FIRST + k)
+            axis = e.to_3x3() @ Vector((0, 1, 0))            # the bone's Y: where the eye looks
+            at_rest = rest[eye].to_3x3() @ Vector((0, 1, 0))
+            head_turn = m.to_3x3() @ rest["Head"].to_3x3().inverted()
+            dirs.append(axis)
+            eye_angles.append(np.degrees((head_turn @ at_rest).angle(axis)))
+        assert dirs[0].angle(dirs[1]) < np.radians(0.5)      # both eyes point the same way
+    assert max(eye_angles) <= 20 and max(eye_angles) > 1
+    angles = np.array(angles)
+    full = np.stack([np.interp(np.arange(n), np.arange(0, n, 2), angles[:, j]) for j in range(3)], axis=1)
+    check_head(full, engine_result)
+    # Clear on the face takes the bones' keys too; the user's bone keys elsewhere would stay.
+    assert bpy.ops.emotive_lipsync.clear(mesh=face.name) == {"FINISHED"}
+    assert not any(fc.data_path.startswith('pose.bones["Head"]') and len(fc.keyframe_points)
+                   for fc in compat.fcurves_of(arm))
+
+
+def test_a_head_bone_the_user_animated_is_left_alone(empty, take):
+    arm, face = _avatar()
+    pb = arm.pose.bones["Head"]
+    pb.rotation_quaternion = (0.99, 0.1, 0.0, 0.0)
+    pb.keyframe_insert("rotation_quaternion", frame=12)
+    generate(face, take)
+    compat = import_module(MODULE + ".blender.compat")
+    fc = compat.find_fcurve(arm, 'pose.bones["Head"].rotation_quaternion', 0)
+    assert [k.co[0] for k in fc.keyframe_points] == [12.0]
+    assert len(compat.find_fcurve(arm, 'pose.bones["Neck"].rotation_quaternion', 0).keyframe_points) > 10
+    assert bpy.ops.emotive_lipsync.clear(mesh=face.name) == {"FINISHED"}
+    fc = compat.find_fcurve(arm, 'pose.bones["Head"].rotation_quaternion', 0)
+    assert [k.co[0] for k in fc.keyframe_points] == [12.0]
+
+
+def test_a_vroid_face_blinks_on_its_own_keys(empty, take, engine_result):
+    keys, _ = HEADS["vroid"]
+    obj = build_head("Face", {**keys, "Fcl_EYE_Close_L": {}, "Fcl_EYE_Close_R": {}})
+    generate(obj, take)
+    n = len(engine_result.times)
+    lids = per_frame(obj.data.shape_keys, 'key_blocks["Fcl_EYE_Close_L"].value', 0, n)
+    assert np.array_equal(lids, per_frame(obj.data.shape_keys, 'key_blocks["Fcl_EYE_Close_R"].value', 0, n))
+    check_blinks(lids, engine_result)
+    assert fcurve_values(obj, "Fcl_EYE_Close") is None        # the eyes' own keys, not the one closing both
+
+
+def test_the_command_line_turns_gestures_off(empty, take):
+    arm, face = _avatar()
+    command = import_module(MODULE + ".blender.command")
+    assert command.execute(["--audio", take[0], "--mesh", face.name, "--text", take[1], "--no-gestures"]) == 0
+    compat = import_module(MODULE + ".blender.compat")
+    assert not [fc for fc in compat.fcurves_of(arm) if fc.data_path.startswith("pose.bones")]
+    assert fcurve_values(face, "eyeBlinkLeft") is None
+    assert command.execute(["--audio", take[0], "--mesh", face.name, "--text", take[1], "--gesture-seed", "2"]) == 0
+    assert fcurve_values(face, "eyeBlinkLeft") is not None
