@@ -92,7 +92,7 @@ BENCH = {
     "crossval": "skips", "crossval_languages": "skips", "crossval_offscript": "skips", "false_alarms": "skips",
     "emodb": "skips",
     "languages": "skips", "learn_real_speech": "skips", "offscript": "skips", "rhubarb_compare": "skips",
-    "speed": "skips", "timing": "skips", "timit": "skips",
+    "speed": "skips", "timing": "skips", "timit": "skips", "gestures": "skips",
     "follow_voice": "runs", "format_alignment": "runs", "learn_speed": "runs",
     "batch_rerun_check": "slow", "blender_generate": "slow", "characters": "slow", "decode_formats": "slow",
     "expression": "slow", "learn_mismatch": "slow", "long_audio": "slow",

@@ -9,7 +9,7 @@ import bpy
 from bpy.props import StringProperty
 
 from ..engine.errors import LipSyncError
-from . import edits, jobs, keying, run
+from . import edits, gestures, jobs, keying, run
 from .operators import face
 
 
@@ -35,13 +35,14 @@ Clear no longer removes them (for export, or to hand the animation on)"""
         try:
             obj = face(context, self.mesh)
             targets = _targets(obj)
-            if not targets:
+            if not targets and not gestures.wrote(obj):
                 raise LipSyncError(f"{obj.name!r} has no lip sync made by this add-on to bake")
             lines = sum(edits.bake(o) for o in targets)
+            gestures.bake(obj)
         except Exception as exc:  # noqa: BLE001 - reported, never a traceback in the UI
             self.report({"ERROR"}, jobs.failure("Bake", exc).message)
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Baked the lip sync of {', '.join(o.name for o in targets)} into plain keys "
+        self.report({"INFO"}, f"Baked the lip sync of {', '.join(o.name for o in targets or [obj])} into plain keys "
                               f"({lines} line{'s' if lines != 1 else ''} remembered before; Generate will key "
                               "those frames afresh)")
         return {"FINISHED"}

@@ -225,11 +225,19 @@ def clear(obj) -> int:
     return removed
 
 
+def bake(obj) -> None:
+    """Make the gestures' bone and object keys a run on ``obj`` wrote plain
+    keys: their record goes, so Clear no longer removes them."""
+    for holder in {o for o in (obj, armature_of(obj)) if o is not None}:
+        if keying.record_owner(holder, RECORD) in ("", obj.name):
+            del holder[RECORD]
+
+
 def wrote(obj) -> bool:
     """Whether a run on ``obj`` keyed gestures on its armature or object."""
     return any(keying.record_owner(o, RECORD) in ("", obj.name) for o in (obj, armature_of(obj)) if o is not None
                and keying.record_owner(o, RECORD) is not None)
 
 
-__all__ = ["OBJECT_TURN", "RECORD", "animated", "armature_of", "channels", "clear", "describe", "forget", "lone_head",
+__all__ = ["OBJECT_TURN", "RECORD", "animated", "armature_of", "bake", "channels", "clear", "describe", "forget", "lone_head",
            "write", "wrote"]

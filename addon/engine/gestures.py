@@ -174,10 +174,12 @@ def blink_times(al: Alignment, g: Gestures, accents_at: list[float], gaps: list[
     last = -np.inf
     due = mean * rng.uniform(0.1, 1.0)
     while True:
-        early = max(last + least, due - 0.6 * mean)
+        # The first blink is not brought far forward: a line does not open on one by rule.
+        early = max(last + least, due - 0.6 * mean if out else 0.6 * due)
         at = None
         pause = next((s for s in spots if s >= early), None)
-        if pause is not None and pause <= due + 0.8 * mean and rng.random() < g.blink_at_pauses:
+        take = rng.random() < g.blink_at_pauses
+        if take and pause is not None and pause <= due + 0.8 * mean:
             at = pause
         else:
             at = _near(due, accents_at, max(early, due - 0.3), due + 0.6) if rng.random() < 0.5 else None

@@ -28,9 +28,12 @@ def _mod(name):
 
 @pytest.fixture
 def empty_scene(extension):
+    """An empty scene; the gestures (which raise the brows too) off, so that
+    the keys are the speech's and the expression's (tests/blender/test_gestures.py has them)."""
     bpy.ops.wm.read_homefile(use_empty=True)
     sc = bpy.context.scene
     sc.render.fps, sc.render.fps_base = FPS, 1.0
+    sc.emotive_lipsync.gestures = False
     return sc
 
 
@@ -159,12 +162,18 @@ def test_the_keys_written_are_the_engines_channels_and_nothing_else(empty_scene,
     kb = obj.data.shape_keys.key_blocks[sorted(face.mapping["AU6"])[0] if head == "arkit" else "Fcl_EYE_Close"]
     kb.value = 0.3
     kb.keyframe_insert("value", frame=20)
+    empty_scene.emotive_lipsync.gestures = True
     plan, _summary = _key(empty_scene, obj, pie, "happy")
     result = _mod("engine.pipeline").analyze(pie[0], settings=plan.options.line, alignment=pie[1])
-    line = _mod("engine.keys").mesh_keys(result, plan.mapping, plan.closure, plan.expression.mapping,
-                                         animated={kb.name})
+    keys = _mod("engine.keys")
+    line = keys.mesh_keys(result, plan.mapping, plan.closure, plan.expression.mapping, animated={kb.name})
+    # ... with the gestures on the keys they find (blinks, the brows on the expression's keys).
+    line = keys.with_gestures(line, result.gestures, _mod("blender.gestures").channels(obj),
+                              plan.expression.mapping, animated={kb.name}, head_elsewhere=True)
+    assert line.gesture_keys or line.gesture_kept
     assert line.units and {c.drivers for c in line.channels} >= {("speech",), ("expression",)}
     assert line.kept == ([kb.name] if head == "arkit" else [])
+    assert kb.name in line.gesture_kept or kb.name not in _mod("blender.gestures").channels(obj).shape_keys.values()
     assert keyed_shape_keys(obj) == set(line.names) | {kb.name} and kb.name not in line.names
     for c in line.channels:
         frames, values = fcurve_values(obj, c.name)
