@@ -239,5 +239,5 @@ def wrote(obj) -> bool:
                and keying.record_owner(o, RECORD) is not None)
 
 
-__all__ = ["OBJECT_TURN", "RECORD", "animated", "armature_of", "bake", "channels", "clear", "describe", "forget", "lone_head",
-           "write", "wrote"]
+__all__ = ["OBJECT_TURN", "RECORD", "animated", "armature_of", "bake", "channels", "clear", "describe", "forget",
+           "lone_head", "write", "wrote"]
