@@ -274,3 +274,65 @@ def test_json_and_csv_carry_the_gesture_tracks(tmp_path):
     off = pipeline.analyze(snd, settings=LineSettings.of(gestures=False), alignment=al)
     assert off.gestures is None and off.to_dict()["gestures"] is None
     assert np.array_equal(off.curves, r.curves)                 # the mouth is the same either way
+
+
+# --- learned from a capture ------------------------------------------------------------
+
+CAPTURE_FPS = 60
+
+
+def _captured_clip(seed, blinks_at, down=0.24, head_deg=3.0):
+    """A synthetic ARKit capture of a short line: lids closing at
+    ``blinks_at`` (s, 0.2 s each), the gaze ``down`` of the way down with a
+    glance aside every second, the head nodding ``head_deg`` degrees."""
+    from addon.engine import learning
+    from addon.engine.learning import capture
+
+    snd, al = voice(0.5, syllables=("AA", "IY", "UW", "EH", "AA", "IY", "UW", "EH"), seed=seed)
+    channels = list(capture.ARKIT)
+    times = np.arange(0, al.duration, 1 / CAPTURE_FPS)
+    rng = np.random.default_rng(seed)
+    y = np.clip(0.02 + rng.normal(0, 0.005, (len(times), len(channels))), 0, 1)
+    for s in blinks_at:
+        x = (times - s) / 0.2
+        shut = np.where((x >= 0) & (x <= 1), np.sin(np.pi * np.clip(x, 0, 1)), 0.0)
+        for c in ("eyeBlinkLeft", "eyeBlinkRight"):
+            y[:, channels.index(c)] = np.maximum(y[:, channels.index(c)], shut)
+    for c in ("eyeLookDownLeft", "eyeLookDownRight"):
+        y[:, channels.index(c)] = down
+    aside = (np.floor(times) % 2 == 1) * 0.2
+    y[:, channels.index("eyeLookOutLeft")] = aside
+    y[:, channels.index("eyeLookInRight")] = aside
+    head = np.stack([head_deg * np.sin(2 * np.pi * 0.7 * times), 0.5 * np.sin(times), 0.0 * times], axis=1)
+    return learning.TrainingClip(f"c{seed}", snd, al, times, y, channels, head)
+
+
+def test_learn_measures_the_gestures_a_capture_shows():
+    from addon.engine import learning
+
+    clips = [_captured_clip(s, [0.5, 1.7]) for s in range(3)]
+    seconds = sum(c.times[-1] - c.times[0] for c in clips)
+    result = learning.learn(clips, emotion="neutral", viseme_set="arkit", name="captured", max_iter=2,
+                            keep_learned=True, delay=0.0)
+    got = result.preset["gestures"]
+    assert got["blink_rate"] == pytest.approx(6 / seconds * 60, rel=0.05)
+    assert got["blink_duration"] == pytest.approx(0.2 * (2 / 3) / 0.61, abs=0.03)   # sin above 0.5: 2/3 of it
+    assert got["gaze_down"] == pytest.approx((0.24 - 0.02) * 25, abs=0.3)      # down against up at rest (0.02)
+    assert 1.0 < got["gaze_range"] < 4.0 and got["gaze_interval"] < 2.0
+    assert got["head_range"] == pytest.approx(3.0 / np.sqrt(2), abs=0.5)
+    assert result.report["gestures"]["evidence"]["blinks"] == 6
+    # What the capture does not show keeps the starting preset's number.
+    assert got["nod"] == presets.load("neutral").gestures.nod
+    presets.validate(dict(result.preset), "captured")
+
+
+def test_live_link_faces_head_rotation_is_read_in_degrees(tmp_path):
+    from addon.engine.learning import capture
+
+    f = tmp_path / "take.csv"
+    f.write_text("Timecode,BlendShapeCount,EyeBlinkLeft,JawOpen,HeadYaw,HeadPitch,HeadRoll\n"
+                 "10:20:30:00.000,61,0.1,0.2,0.1,-0.05,0.0\n10:20:30:01.000,61,0.1,0.2,0.2,0.0,0.01\n")
+    head = capture.read_head_csv(f, fps=60)
+    assert head == pytest.approx(np.degrees([[-0.05, 0.1, 0.0], [0.0, 0.2, 0.01]]))
+    f.write_text("time,jawOpen\n0,0.1\n0.5,0.2\n")
+    assert capture.read_head_csv(f) is None

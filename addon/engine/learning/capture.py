@@ -122,6 +122,26 @@ def read_capture_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, n
     return times, values, names
 
 
+#: Live Link Face's head rotation columns (radians), in the order of
+#: :attr:`.data.TrainingClip.head` (pitch, yaw, roll).
+HEAD = ("headpitch", "headyaw", "headroll")
+
+
+def read_head_csv(path: str | Path, fps: float = 60.0) -> np.ndarray | None:
+    """The head's rotation a capture CSV records (``HeadPitch``, ``HeadYaw``,
+    ``HeadRoll`` in radians, as Live Link Face writes them), in degrees,
+    (rows, 3); None when it has no such columns."""
+    path = Path(path)
+    rows, header = _read_rows(path, "capture")
+    lower = [canonical(h) for h in header]
+    if not all(h in lower for h in HEAD):
+        return None
+    t_col, is_tc = _time_column([h.lower() for h in header])
+    cols = [(lower.index(h), h, None) for h in HEAD]
+    _times, values = _read_frames(path, rows, len(header), t_col, is_tc, fps, 1.0, cols)
+    return np.degrees(values)
+
+
 # --- generic per-frame tracks ----------------------------------------------------------
 
 TRACK_MAP_HELP = ("a JSON file or COLUMN=TRACK[,COLUMN=TRACK...] (and time=COLUMN, time_unit=ms); TRACK is "

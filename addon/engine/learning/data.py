@@ -20,7 +20,7 @@ from ..importers import read_alignment
 from ..language import CLASSES, Lexicon, read_text_file
 from ..presets import Preset, as_preset
 from ..render import phoneme_weights, rest_target
-from .capture import read_capture_csv, read_track_csv
+from .capture import read_capture_csv, read_head_csv, read_track_csv
 
 
 @dataclass
@@ -33,6 +33,8 @@ class TrainingClip:
     times: np.ndarray            # track sample times, s from the audio's start
     tracks: np.ndarray           # (samples, channels)
     channels: list[str]
+    #: The head's rotation on ``times`` (samples, 3: pitch, yaw, roll, degrees), where the capture has it.
+    head: np.ndarray | None = None
 
     def __post_init__(self):
         if self.tracks.ndim != 2 or self.tracks.shape[0] != len(self.times):
@@ -121,10 +123,12 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
     stem = audio_path.with_suffix("")
     tracks_path = Path(tracks_path) if tracks_path else stem.with_suffix(".csv")
     snd = audio_mod.load(audio_path)
+    head = None
     if track_map is not None:
         times, values, channels = read_track_csv(tracks_path, track_map, capture_fps)
     else:
         times, values, channels = read_capture_csv(tracks_path, capture_fps)
+        head = read_head_csv(tracks_path, capture_fps)
     if alignment_path is None and transcript is None:
         grid = stem.with_suffix(".TextGrid")
         if grid.is_file():
@@ -139,4 +143,4 @@ def load_clip(audio_path: str | os.PathLike, tracks_path: str | os.PathLike | No
         al.duration = max(al.duration, snd.duration)
     else:
         al = align_audio(snd, transcript, Lexicon.with_user_file(dictionary))
-    return TrainingClip(audio_path.stem, snd, al, times, values, channels)
+    return TrainingClip(audio_path.stem, snd, al, times, values, channels, head)

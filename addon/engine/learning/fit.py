@@ -70,6 +70,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .. import expression, mapping, presets, visemes
+from . import gestures_fit
 from ..errors import LipSyncError
 from ..language.phonemes import CLASSES
 from . import delay as delay_mod
@@ -548,6 +549,12 @@ def learn(clips: list[TrainingClip], *, emotion: str | dict | presets.Preset = "
     result["expression"] = face
     if face and kept == "learned":
         preset["expression"] = {u: v["strength"] for u, v in face.items()}
+        preset = presets.validate(preset, name)
+    # The gestures (blinks, gaze, head) as the capture shows them, whatever the mouth's fit kept.
+    moving = gestures_fit.measure([(c.times - final.delay, c.tracks, c.alignment, c.head) for c in clips], channels)
+    result["gestures"] = moving
+    if moving["values"]:
+        preset["gestures"] = {**preset.get("gestures", {}), **moving["values"]}
         preset = presets.validate(preset, name)
     result["fit"]["seconds"] = round(time.perf_counter() - t_start, 3)
     tell("done", 1.0)
