@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 
+import bpy
 import numpy as np
 from mathutils import Quaternion
 
@@ -69,15 +70,12 @@ def describe(obj) -> tuple[list[str], list[str]]:
     return have, found.missing(lone_head(obj))
 
 
+def _bone_path(name: str) -> str:
+    return f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
+
+
 def _rotation_paths(name: str) -> tuple[str, ...]:
-    esc = f'pose.bones["{compat_escape(name)}"]'
-    return tuple(f"{esc}.{r}" for r in ("rotation_quaternion", "rotation_euler", "rotation_axis_angle"))
-
-
-def compat_escape(name: str) -> str:
-    import bpy
-
-    return bpy.utils.escape_identifier(name)
+    return tuple(f"{_bone_path(name)}.{r}" for r in ("rotation_quaternion", "rotation_euler", "rotation_axis_angle"))
 
 
 def _user_keys(id_data, paths: tuple[str, ...]) -> bool:
@@ -148,7 +146,7 @@ def write(obj, line: keys.LineKeys, motion, first_frame: int, tolerance: float, 
             local = gestures.in_bone_frame(q, _in_world(arm, pb.bone))
             hold = _pose_rotation(pb, arm)
             suffix, values = _as_mode(local, pb.rotation_mode, hold)
-            base = f'pose.bones["{compat_escape(name)}"].{suffix}'
+            base = f"{_bone_path(name)}.{suffix}"
             for i in range(values.shape[1]):
                 paths.append((base, i))
                 columns.append(values[:, i])
@@ -184,7 +182,7 @@ def _held(obj, path: str) -> tuple[float, ...]:
 def _pose_rotation(pb, arm) -> Quaternion:
     """The pose a bone holds apart from the gestures' keys: its rotation
     now, or rest where the gestures keyed it before."""
-    if any(k.split(":", 1)[1].startswith(f'pose.bones["{compat_escape(pb.name)}"]')
+    if any(k.split(":", 1)[1].startswith(_bone_path(pb.name))
            for k in keying.recorded_ranges(arm, RECORD)):
         return Quaternion()
     if pb.rotation_mode == "QUATERNION":
@@ -205,7 +203,7 @@ def forget(obj, first: int, last: int, keep: set[str] = frozenset()) -> int:
             continue
         for name, spans in keying.recorded_ranges(holder, RECORD).items():
             index, path = name.split(":", 1)
-            if any(path.startswith(f'pose.bones["{compat_escape(k)}"]') or path == k for k in keep):
+            if any(path.startswith(_bone_path(k)) or path == k for k in keep):
                 continue
             fc = compat.find_fcurve(holder, path, int(index))
             for a, b in spans if fc is not None else []:

@@ -260,7 +260,9 @@ Rhubarb ...)"""
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         missing = mapping_mod.unmapped(vset, found.mapping)
-        msg = f"{obj.name}: {found.describe(vset)}"
+        have, lacks = gestures.describe(obj)
+        msg = f"{obj.name}: {found.describe(vset)}; gestures on {len(have)} channels" + \
+            (f" (no {', no '.join(lacks)})" if lacks else "")
         self.report({"WARNING"} if missing else {"INFO"},
                     msg + (f"; unmapped: {', '.join(missing)}" if missing else ""))
         return {"FINISHED"}

@@ -286,3 +286,15 @@ def test_the_command_line_turns_gestures_off(empty, take):
     assert fcurve_values(face, "eyeBlinkLeft") is None
     assert command.execute(["--audio", take[0], "--mesh", face.name, "--text", take[1], "--gesture-seed", "2"]) == 0
     assert fcurve_values(face, "eyeBlinkLeft") is not None
+
+
+def test_auto_map_says_which_gestures_the_face_can_show(empty, capsys):
+    _arm, face = _avatar()
+    assert bpy.ops.emotive_lipsync.auto_map(mesh=face.name) == {"FINISHED"}
+    said = capsys.readouterr().out
+    assert "gestures on" in said and "(no " not in said.split("gestures on")[1], said
+    keys, _ = HEADS["oculus"]
+    build_head("Plain", keys)
+    assert bpy.ops.emotive_lipsync.auto_map(mesh="Plain") == {"FINISHED"}
+    said = capsys.readouterr().out
+    assert "no blinks" in said and "no gaze" in said and "no head" not in said, said   # the object turns
