@@ -279,6 +279,29 @@ def _bump(grid: np.ndarray, centre: float, before: float, after: float) -> np.nd
     return np.where(np.abs(x) < 1, 0.5 * (1 + np.cos(np.pi * x)), 0.0)
 
 
+#: How long the head takes to drift back towards rest (s).
+DRIFT = 0.7
+
+
+def _leaky(v: np.ndarray) -> np.ndarray:
+    """The running sum of ``v`` (points, axes) over :data:`STEP` s, each
+    point's share fading with time constant :data:`DRIFT`."""
+    keep = np.exp(-np.arange(int(5 * DRIFT / STEP)) * STEP / DRIFT)
+    return np.stack([np.convolve(v[:, j], keep)[:len(v)] * STEP for j in range(v.shape[1])], axis=1)
+
+
+@lru_cache(maxsize=1)
+def _unit_spread() -> float:
+    """The spread (degrees per unit) of the head's motion in speech at its
+    usual loudness, made the way :func:`_head` makes it, over 10 minutes."""
+    rng = np.random.default_rng(0)
+    n = int(600 / STEP)
+    way = _smooth_noise(n, 0.12, rng, 3)
+    way /= np.linalg.norm(way, axis=1, keepdims=True) + 1e-9
+    pace = 0.75 + 0.25 * np.abs(_smooth_noise(n, 0.3, rng, 1)[:, 0])
+    return float(_leaky(way * pace[:, None]).std(axis=0).mean())
+
+
 def _head(grid: np.ndarray, g: Gestures, speech: list[tuple[float, float]], loud: np.ndarray,
           accents_at: list[float], rng: np.random.Generator) -> np.ndarray:
     """(points, 3) pitch, yaw, roll of the head on ``grid``.  The head's
@@ -292,16 +315,11 @@ def _head(grid: np.ndarray, g: Gestures, speech: list[tuple[float, float]], loud
     # The direction wanders smoothly; the speed is the voice's, a little varied.
     way = _smooth_noise(len(grid), 0.12, rng, 3)
     way /= np.linalg.norm(way, axis=1, keepdims=True) + 1e-9
-    speed = way * (drive * (0.75 + 0.25 * np.abs(_smooth_noise(len(grid), 0.3, rng, 1)[:, 0])))[:, None]
-    keep = 1 - STEP / 0.7
-    head = np.zeros_like(speed)
-    acc = np.zeros(3)
-    for k in range(len(grid)):
-        acc = acc * keep + speed[k] * STEP
-        head[k] = acc
-    spoken = talking > 0.5
-    spread = head[spoken].std(axis=0) if spoken.sum() > 10 else head.std(axis=0)
-    head *= g.head_range * np.array([1.0, 0.8, 0.5]) / np.maximum(spread, 1e-9)
+    pace = 0.75 + 0.25 * np.abs(_smooth_noise(len(grid), 0.3, rng, 1)[:, 0])
+    # Scaled so that speech at its usual loudness moves head_range degrees,
+    # the same on a short line as on a long one, and a line with little
+    # speech stays as calm as the pauses of any other.
+    head = _leaky(way * (drive * pace)[:, None]) * (g.head_range * np.array([1.0, 0.8, 0.5]) / _unit_spread())
     freqs = rng.uniform(0.06, 0.18, 3)
     phases = rng.uniform(0, 2 * np.pi, 3)
     head += g.sway * np.sin(2 * np.pi * freqs[None, :] * grid[:, None] + phases[None, :]) * np.array([0.6, 1, 0.6])

@@ -253,7 +253,7 @@ class Gestures:
 
     blink_rate: float = 18.0
     blink_duration: float = 0.2
-    blink_at_pauses: float = 0.85
+    blink_at_pauses: float = 0.95
     double_blink: float = 0.08
     gaze_interval: float = 2.2
     gaze_range: float = 5.0
@@ -261,7 +261,7 @@ class Gestures:
     look_away: float = 0.5
     look_away_angle: float = 9.0
     lid_follow: float = 0.5
-    head_range: float = 2.0
+    head_range: float = 2.5
     head_follow_voice: float = 0.9
     nod: float = 2.5
     sway: float = 0.8
