@@ -298,3 +298,35 @@ def test_auto_map_says_which_gestures_the_face_can_show(empty, capsys):
     assert bpy.ops.emotive_lipsync.auto_map(mesh="Plain") == {"FINISHED"}
     said = capsys.readouterr().out
     assert "no blinks" in said and "no gaze" in said and "no head" not in said, said   # the object turns
+
+
+def test_the_gltf_export_carries_the_head_eyes_and_blinks(empty, take, tmp_path):
+    """A game pipeline's route: the avatar exported to glTF carries the head,
+    neck and eye bones' rotations and the blinks as morph-target weights."""
+    from test_gltf import GLTF_EXPORT, _accessor, _call, _enable, _morph_animation, _read_gltf
+
+    arm, face = _avatar()
+    group = face.vertex_groups.new(name="Head")
+    group.add(list(range(len(face.data.vertices))), 1.0, "REPLACE")
+    generate(face, take)
+    _enable("io_scene_gltf2")
+    out = str(tmp_path / "avatar.gltf")
+    _call(bpy.ops.export_scene.gltf, filepath=out, **GLTF_EXPORT)
+    doc, buffers = _read_gltf(out)
+    node = {n.get("name"): i for i, n in enumerate(doc["nodes"])}
+    rotations = {}
+    for anim in doc.get("animations", []):
+        for ch in anim["channels"]:
+            target = ch["target"]
+            if target["path"] == "rotation" and target.get("node") in (node["Head"], node["Neck"],
+                                                                        node["LeftEye"], node["RightEye"]):
+                sampler = anim["samplers"][ch["sampler"]]
+                rotations[doc["nodes"][target["node"]]["name"]] = _accessor(doc, buffers, sampler["output"])
+    assert set(rotations) == {"Head", "Neck", "LeftEye", "RightEye"}
+    for name, q in rotations.items():
+        turn = np.degrees(2 * np.arccos(np.clip(np.abs(q @ q[0]), 0, 1)))   # from the first sample
+        assert 0.5 < turn.max() < 25, (name, turn.max())
+    np.testing.assert_allclose(rotations["LeftEye"], rotations["RightEye"], atol=1e-5)
+    names, _times, weights, _interp = _morph_animation(doc, buffers, face.name)
+    left, right = weights[:, names.index("eyeBlinkLeft")], weights[:, names.index("eyeBlinkRight")]
+    assert left.max() > 0.9 and np.allclose(left, right, atol=1e-4)
