@@ -18,19 +18,26 @@ from .model import FRAME, AlignedWord
 _BLOCK_FRAMES = 6000
 
 
-def frame_levels(audio: Audio, hop: float = FRAME) -> np.ndarray:
-    """RMS level in dBFS of consecutive 25 ms windows every ``hop`` seconds."""
+def frame_levels(audio: Audio, hop: float = FRAME, emphasis: bool = False) -> np.ndarray:
+    """RMS level in dBFS of consecutive 25 ms windows every ``hop`` seconds;
+    with ``emphasis``, of the signal's first difference (the pre-emphasis
+    of speech recognisers, rising 6 dB an octave: the level of the speech
+    band, a low rumble or thump counting 15-30 dB less than broadband)."""
     step = int(round(hop * audio.rate))
     win = int(round(0.025 * audio.rate))
     samples = audio.samples
     if len(samples) < win:
         x = samples.astype(np.float64)
+        if emphasis:
+            x = np.diff(x, prepend=x[:1])
         return 10.0 * np.log10(np.array([np.mean(x * x) if len(x) else 0.0]) + 1e-12)
     n = (len(samples) - win) // step + 1
     power = np.empty(n)
     for k0 in range(0, n, _BLOCK_FRAMES):
         k1 = min(n, k0 + _BLOCK_FRAMES)
         x = samples[k0 * step:(k1 - 1) * step + win].astype(np.float64)
+        if emphasis:
+            x = np.diff(x, prepend=samples[k0 * step - 1] if k0 else x[0])
         # Window sums from a running sum: each window's energy in O(1).
         run = np.concatenate([[0.0], np.cumsum(x * x)])
         starts = np.arange(k1 - k0) * step

@@ -236,7 +236,7 @@ def voice_level(levels: np.ndarray, al: Alignment) -> float:
     return float(np.percentile(levels[on] if on.any() else levels, 90))
 
 
-def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, levels: np.ndarray, settings: AlignSettings,
+def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings,
                 left_out: Sequence[tuple[float, float]] = (), directions: Collection[int] = ()
                 ) -> list[tuple[float, float]]:
     """Stretches of speech no spoken word lies on, as (start, end) s; runs
@@ -245,8 +245,10 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, levels: np.ndarray,
     holds at least :data:`MIN_UNSCRIPTED` s of speech, :data:`MIN_VOICED` s of
     it within :data:`VOICED_DB` of the line's voice (:func:`voice_level`): a
     breath, a lip smack, the decay of the last word or room noise is
-    quieter.  Stretches between two words where the transcript has a stage
-    direction (``directions``: gaps, :func:`..language.stage_direction_gaps`)
+    quieter, and so is a low rumble or thump in the speech band (the
+    levels are :func:`.speech.frame_levels` with ``emphasis``).  Stretches
+    between two words where the transcript has a stage direction
+    (``directions``: gaps, :func:`..language.stage_direction_gaps`)
     are the sound it stands for.  The stretches ``left_out`` (speech known to
     be cut from the transcript) are uncovered up to the words beside them,
     without :data:`WORD_MARGIN`."""
@@ -263,7 +265,12 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, levels: np.ndarray,
             joined[-1][1] = j
         else:
             joined.append([i, j])
-    loud = levels[:len(mask)] >= voice_level(levels, al) - VOICED_DB
+    if not joined:
+        return []
+    # Loud in the speech band: a low rumble, a handling thump or a breath's pop as loud as the voice
+    # is not speech (the sound before the first word of the MFA clip "acoustic_corpus").
+    band = frame_levels(snd, emphasis=True)
+    loud = band[:len(mask)] >= voice_level(band, al) - VOICED_DB
     script = al.script
     said = [k for k, w in enumerate(script) if w.spoken]
     spans = []
@@ -337,7 +344,7 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
         al.notes.insert(0, warning)
         al.warnings.insert(0, warning)
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
-    spans = _unscripted(snd, al, mask, levels, settings, left_out, directions)
+    spans = _unscripted(snd, al, mask, settings, left_out, directions)
     found, phones = recognize_spans(snd, spans, settings) if spans else ([], [])
     spans = [(t0, t1) for t0, t1 in spans if _heard(found, t0, t1)]
     keep = [k for k, w in enumerate(found) if any(t0 <= w.start < t1 for t0, t1 in spans)]
