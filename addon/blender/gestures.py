@@ -62,11 +62,22 @@ def channels(obj) -> gestures.Channels:
 
 
 def describe(obj) -> tuple[list[str], list[str]]:
-    """What the panel lists: the channels found, and what is missing, in words."""
+    """What the panel and Auto-Map list: the channels found, a line per
+    part (``Blinks: eyeBlinkLeft, eyeBlinkRight``), and what is missing, in words."""
     found = channels(obj)
-    have = sorted(set(found.shape_keys.values())) + sorted(set(found.bones.values()))
-    if lone_head(obj):
-        have.append("the object's delta rotation (head)")
+    keys, bones = found.shape_keys, found.bones
+    have = []
+    blinks = sorted({k for r, k in keys.items() if r.startswith("blink")})
+    if blinks:
+        have.append("Blinks: " + ", ".join(blinks))
+    looks = sorted({k for r, k in keys.items() if r.startswith("look")})
+    gaze = [bones[r] for r in ("eye_L", "eye_R") if r in bones] + \
+        (looks if len(looks) <= 2 else [f"{len(looks)} look keys ({looks[0]} ...)"])
+    if gaze:
+        have.append("Gaze: " + ", ".join(gaze))
+    head = [bones[r] for r in ("neck", "head") if r in bones]
+    if head or lone_head(obj):
+        have.append("Head: " + (", ".join(head) if head else "the object's delta rotation"))
     return have, found.missing(lone_head(obj))
 
 

@@ -37,10 +37,8 @@ class LIPSYNC_PT_gestures(bpy.types.Panel):
             return
         have, missing = gestures.describe(obj)
         col = layout.column(align=True)
-        for name in have[:8]:
-            col.label(text=name, icon="CHECKMARK")
-        if len(have) > 8:
-            col.label(text=f"... and {len(have) - 8} more", icon="CHECKMARK")
+        for line in have:
+            col.label(text=line, icon="CHECKMARK")
         for what in missing:
             col.label(text=f"No {what}", icon="INFO")
 

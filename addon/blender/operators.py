@@ -261,8 +261,7 @@ Rhubarb ...)"""
             return _fail(self, exc)
         missing = mapping_mod.unmapped(vset, found.mapping)
         have, lacks = gestures.describe(obj)
-        msg = f"{obj.name}: {found.describe(vset)}; gestures on {len(have)} channels" + \
-            (f" (no {', no '.join(lacks)})" if lacks else "")
+        msg = f"{obj.name}: {found.describe(vset)}; gestures: " + "; ".join(have + [f"no {w}" for w in lacks])
         self.report({"WARNING"} if missing else {"INFO"},
                     msg + (f"; unmapped: {', '.join(missing)}" if missing else ""))
         return {"FINISHED"}

@@ -292,7 +292,8 @@ def test_auto_map_says_which_gestures_the_face_can_show(empty, capsys):
     _arm, face = _avatar()
     assert bpy.ops.emotive_lipsync.auto_map(mesh=face.name) == {"FINISHED"}
     said = capsys.readouterr().out
-    assert "gestures on" in said and "(no " not in said.split("gestures on")[1], said
+    assert "Blinks: eyeBlinkLeft, eyeBlinkRight; Gaze: LeftEye, RightEye, 8 look keys" in said, said
+    assert "Head: Neck, Head" in said and "no " not in said.split("gestures:")[1], said
     keys, _ = HEADS["oculus"]
     build_head("Plain", keys)
     assert bpy.ops.emotive_lipsync.auto_map(mesh="Plain") == {"FINISHED"}
@@ -330,3 +331,26 @@ def test_the_gltf_export_carries_the_head_eyes_and_blinks(empty, take, tmp_path)
     names, _times, weights, _interp = _morph_animation(doc, buffers, face.name)
     left, right = weights[:, names.index("eyeBlinkLeft")], weights[:, names.index("eyeBlinkRight")]
     assert left.max() > 0.9 and np.allclose(left, right, atol=1e-4)
+
+
+def test_the_panel_lists_the_channels_found_and_the_ones_missing(human_head):
+    from types import SimpleNamespace
+
+    from test_edits import _Layout
+
+    panel = import_module(MODULE + ".blender.gestures_ui").LIPSYNC_PT_gestures
+    st = bpy.context.scene.emotive_lipsync
+    st.target = human_head
+    layout = _Layout()
+    panel.draw_header(SimpleNamespace(layout=layout), bpy.context)
+    panel.draw(SimpleNamespace(layout=layout), bpy.context)
+    assert layout.props == ["gestures", "gesture_seed"]
+    assert layout.labels == ["Blinks: eyeBlinkLeft, eyeBlinkRight", "Gaze: 8 look keys (eyeLookDownLeft ...)",
+                             "Head: the object's delta rotation"]
+    assert not [t for t in layout.labels if t.startswith("No ")]
+    keys, _ = HEADS["oculus"]
+    st.target = build_head("Plain", keys)
+    layout = _Layout()
+    panel.draw(SimpleNamespace(layout=layout), bpy.context)
+    assert "No blinks (no eyeBlink or Fcl_EYE_Close keys)" in layout.labels
+    assert "No gaze (no eyeLook keys or eye bones)" in layout.labels
