@@ -14,6 +14,7 @@ on its rotation that lip sync did not write) is left alone.
 
 from __future__ import annotations
 
+import json
 import os
 
 import bpy
@@ -25,6 +26,9 @@ from ..engine.datafile import read_object
 from . import compat, keying, userdata
 
 RECORD = "emotive_lipsync_gestures"
+#: The pose each bone (and a lone head's delta rotation) held before the
+#: gestures first keyed it: later runs key on top of it, Clear puts it back.
+HELD = "emotive_lipsync_gestures_pose"
 #: What a lone head mesh turns by.
 OBJECT_TURN = "delta_rotation_euler"
 
@@ -168,7 +172,7 @@ def write(obj, line: keys.LineKeys, motion, first_frame: int, tolerance: float, 
     elif motion is not None and lone_head(obj) and f"{obj.name}'s rotation" not in line.gesture_kept:
         q = gestures.character_turns(*motion.head.T)
         local = gestures.in_bone_frame(q, np.array(obj.matrix_world.to_3x3().normalized()))
-        hold = _held(obj, OBJECT_TURN)
+        hold = _held(obj)
         eul = []
         prev = None
         for row in local:
@@ -182,26 +186,68 @@ def write(obj, line: keys.LineKeys, motion, first_frame: int, tolerance: float, 
     return written
 
 
-def _held(obj, path: str) -> tuple[float, ...]:
-    """The value ``path`` of ``obj`` holds where gestures did not key it (its
-    value now, unless the keys there are the gestures' own: then rest)."""
-    if keying.recorded_ranges(obj, RECORD):
-        return (0.0, 0.0, 0.0)
-    return tuple(getattr(obj, path))
+def _held_map(holder) -> dict:
+    try:
+        return json.loads(holder.get(HELD, "{}"))
+    except (TypeError, ValueError):
+        return {}
 
 
-def _pose_rotation(pb, arm) -> Quaternion:
-    """The pose a bone holds apart from the gestures' keys: its rotation
-    now, or rest where the gestures keyed it before."""
-    if any(k.split(":", 1)[1].startswith(_bone_path(pb.name))
-           for k in keying.recorded_ranges(arm, RECORD)):
-        return Quaternion()
+def _remember(holder, name: str, value) -> None:
+    held = _held_map(holder)
+    held[name] = [float(x) for x in value]
+    holder[HELD] = json.dumps(held)
+
+
+def _held(obj) -> tuple[float, ...]:
+    """The delta rotation a lone head held before the gestures first keyed
+    it (its value now, the first time)."""
+    held = _held_map(obj)
+    if OBJECT_TURN not in held:
+        _remember(obj, OBJECT_TURN, getattr(obj, OBJECT_TURN))
+        held = _held_map(obj)
+    return tuple(held[OBJECT_TURN])
+
+
+def _rotation_now(pb) -> Quaternion:
     if pb.rotation_mode == "QUATERNION":
         return pb.rotation_quaternion.copy()
     if pb.rotation_mode == "AXIS_ANGLE":
         a = pb.rotation_axis_angle
         return Quaternion((a[1], a[2], a[3]), a[0])
     return pb.rotation_euler.to_quaternion()
+
+
+def _pose_rotation(pb, arm) -> Quaternion:
+    """The pose a bone held before the gestures first keyed it (its
+    rotation now, the first time)."""
+    held = _held_map(arm)
+    if pb.name not in held:
+        _remember(arm, pb.name, _rotation_now(pb))
+        held = _held_map(arm)
+    return Quaternion(held[pb.name])
+
+
+def _restore(holder, forget_them: bool = True) -> None:
+    """Put back the poses the gestures keyed on top of (Clear, a run with
+    the gestures off); ``forget_them``: and forget them."""
+    for name, value in _held_map(holder).items():
+        if name == OBJECT_TURN:
+            setattr(holder, OBJECT_TURN, value)
+            continue
+        pb = holder.pose.bones.get(name) if holder.type == "ARMATURE" else None
+        if pb is None:
+            continue
+        q = Quaternion(value)
+        if pb.rotation_mode == "QUATERNION":
+            pb.rotation_quaternion = q
+        elif pb.rotation_mode == "AXIS_ANGLE":
+            axis, angle = q.to_axis_angle()
+            pb.rotation_axis_angle = (angle, *axis)
+        else:
+            pb.rotation_euler = q.to_euler(pb.rotation_mode)
+    if forget_them and HELD in holder:
+        del holder[HELD]
 
 
 def forget(obj, first: int, last: int, keep: set[str] = frozenset()) -> int:
@@ -221,6 +267,8 @@ def forget(obj, first: int, last: int, keep: set[str] = frozenset()) -> int:
                 lo, hi = max(a, first), min(b, last)
                 if lo <= hi:
                     removed += keying.replace_range(fc, lo, hi)
+        if not keep:
+            _restore(holder, forget_them=False)
     return removed
 
 
@@ -231,6 +279,7 @@ def clear(obj) -> int:
         owner = keying.record_owner(holder, RECORD)
         if owner is not None and owner in ("", obj.name):
             removed += keying.clear_owned(holder, RECORD)["keys"]
+            _restore(holder)
     return removed
 
 
@@ -240,6 +289,8 @@ def bake(obj) -> None:
     for holder in {o for o in (obj, armature_of(obj)) if o is not None}:
         if keying.record_owner(holder, RECORD) in ("", obj.name):
             del holder[RECORD]
+            if HELD in holder:
+                del holder[HELD]
 
 
 def wrote(obj) -> bool:

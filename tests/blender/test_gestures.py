@@ -16,7 +16,7 @@ from importlib import import_module
 import bpy
 import numpy as np
 import pytest
-from mathutils import Vector
+from mathutils import Quaternion, Vector
 
 from conftest import MODULE, SAMPLE, fcurve_values
 from heads import HEADS, build_head
@@ -354,3 +354,21 @@ def test_the_panel_lists_the_channels_found_and_the_ones_missing(human_head):
     panel.draw(SimpleNamespace(layout=layout), bpy.context)
     assert "No blinks (no eyeBlink or Fcl_EYE_Close keys)" in layout.labels
     assert "No gaze (no eyeLook keys or eye bones)" in layout.labels
+
+
+def test_a_pose_the_user_set_is_kept_under_the_motion_and_put_back_by_clear(empty, take, engine_result):
+    """A head the animator tilted (a pose, no keys) moves about that tilt,
+    on every Generate alike, and Clear leaves it tilted as it was."""
+    arm, face = _avatar()
+    tilt = Quaternion((1.0, 0.0, 0.12, 0.0)).normalized()      # about 14 degrees
+    arm.pose.bones["Head"].rotation_quaternion = tilt
+    n = len(engine_result.times)
+    path = 'pose.bones["Head"].rotation_quaternion'
+    for _run in range(2):
+        generate(face, take)
+        q = np.stack([per_frame(arm, path, i, n) for i in range(4)], axis=1)
+        off = np.degrees(2 * np.arccos(np.clip(np.abs(q @ np.array(tilt)), 0, 1)))
+        assert off.max() < 12 and np.median(off) < 4, (off.max(), np.median(off))   # about the tilt, not rest
+    assert bpy.ops.emotive_lipsync.clear(mesh=face.name) == {"FINISHED"}
+    back = arm.pose.bones["Head"].rotation_quaternion
+    assert Quaternion(back).rotation_difference(tilt).angle < 1e-4
