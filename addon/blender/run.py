@@ -107,21 +107,16 @@ class Summary:
             est += f", {self.unscripted_seconds:.1f} s unscripted"
         again = " (replacing the previous lip sync)" if self.replaced else ""
         also = f" (and on {', '.join(self.also)})" if self.also else ""
-        face = ""
-        if self.expression:
-            face += f"; expression {', '.join(self.expression)} on {len(self.expression_keys)} shape keys"
-        if self.no_key:
-            face += f"; no shape key shows {', '.join(self.no_key)} (left out)"
-        if self.kept:
-            face += f"; kept your animation on {', '.join(self.kept)} (not keyed)"
-        if self.gestures:
-            face += f"; gestures ({self.blinks} blink{'s' if self.blinks != 1 else ''}) on {', '.join(self.gestures)}"
-        if self.gesture_missing:
-            face += f"; no channel for {', '.join(self.gesture_missing)}"
-        if self.gesture_kept:
-            face += f"; kept your animation on {', '.join(self.gesture_kept)} (no gestures there)"
-        if self.edits:
-            face += f"; {self.edits}"
+        # The rest of the face, each part said only where there is something to say.
+        face = "".join(f"; {text}" for shown, text in (
+            (self.expression, f"expression {', '.join(self.expression)} on {len(self.expression_keys)} shape keys"),
+            (self.no_key, f"no shape key shows {', '.join(self.no_key)} (left out)"),
+            (self.kept, f"kept your animation on {', '.join(self.kept)} (not keyed)"),
+            (self.gestures, f"gestures ({self.blinks} blink{'s' if self.blinks != 1 else ''}) on "
+                            f"{', '.join(self.gestures)}"),
+            (self.gesture_missing, f"no channel for {', '.join(self.gesture_missing)}"),
+            (self.gesture_kept, f"kept your animation on {', '.join(self.gesture_kept)} (no gestures there)"),
+            (self.edits, self.edits)) if shown)
         return (f"Lip sync {self.label!r} -> {self.mesh}: {self.keys} keys on {self.shape_keys} {self.driven}{also}, "
                 f"frames {self.first_frame}-{self.last_frame}{again}{est}{face}, in {self.seconds:.1f} s"
                 + "".join(f"; warning: {w}" for w in self.warnings))
