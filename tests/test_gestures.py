@@ -336,3 +336,20 @@ def test_live_link_faces_head_rotation_is_read_in_degrees(tmp_path):
     assert head == pytest.approx(np.degrees([[-0.05, 0.1, 0.0], [0.0, 0.2, 0.01]]))
     f.write_text("time,jawOpen\n0,0.1\n0.5,0.2\n")
     assert capture.read_head_csv(f) is None
+
+
+def test_a_studios_channel_table_is_checked_field_by_field(tmp_path):
+    from addon.engine import conventions
+
+    good = {"shape_keys": {"blink_L": ["Lid_Close_L"]}, "bones": {"head": ["c_head.x"]}}
+    assert gestures.check_table(good, "gestures.json") is good
+    # It lives among the studio's naming conventions and is not read as one.
+    (tmp_path / conventions.GESTURES_FILE).write_text(json.dumps(good))
+    assert len(conventions.load_all([tmp_path])) == len(conventions.load_all())
+    for doc, field in (({"keys": {}}, "keys"), ({"bones": ["head"]}, "bones"),
+                       ({"bones": {"skull": ["x"]}}, "bones.skull"),
+                       ({"shape_keys": {"blink_L": "Lid_Close_L"}}, "shape_keys.blink_L"),
+                       ({"shape_keys": {"blink_L": [""]}}, "shape_keys.blink_L")):
+        with pytest.raises(PresetError) as err:
+            gestures.check_table(doc, "studio/gestures.json")
+        assert err.value.field == field and "studio/gestures.json" in str(err.value)

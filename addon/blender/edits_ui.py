@@ -11,6 +11,7 @@ from bpy.props import StringProperty
 from ..engine.errors import LipSyncError
 from . import edits, gestures, jobs, keying, run
 from .operators import face
+from .panel import SidebarPanel
 
 
 def _targets(obj) -> list:
@@ -48,10 +49,7 @@ Clear no longer removes them (for export, or to hand the animation on)"""
         return {"FINISHED"}
 
 
-class LIPSYNC_PT_edits(bpy.types.Panel):
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Lip Sync"
+class LIPSYNC_PT_edits(SidebarPanel, bpy.types.Panel):
     bl_label = "Hand Edits"
     bl_parent_id = "LIPSYNC_PT_main"
     bl_options = {"DEFAULT_CLOSED"}

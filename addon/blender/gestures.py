@@ -15,13 +15,13 @@ on its rotation that lip sync did not write) is left alone.
 from __future__ import annotations
 
 import json
-import os
+from pathlib import Path
 
 import bpy
 import numpy as np
 from mathutils import Quaternion
 
-from ..engine import gestures, keys
+from ..engine import conventions, gestures, keys
 from ..engine.datafile import read_object
 from . import compat, keying, userdata
 
@@ -33,11 +33,22 @@ HELD = "emotive_lipsync_gestures_pose"
 OBJECT_TURN = "delta_rotation_euler"
 
 
+_read: dict = {}   # path -> ((modification time, size), its checked table)
+
+
 def _extra() -> dict | None:
-    """A studio's own channel names: gestures.json in the user's conventions folder."""
+    """A studio's own channel names: gestures.json in the user's conventions
+    folder, read again only when it changes (the panel asks on every redraw);
+    a malformed file is a :class:`..engine.errors.PresetError` naming it."""
     folder = userdata.conventions_folder()
-    path = os.path.join(folder, "gestures.json") if folder else ""
-    return read_object(path) if path and os.path.isfile(path) else None
+    path = Path(folder) / conventions.GESTURES_FILE if folder else None
+    if path is None or not path.is_file():
+        return None
+    stat = path.stat()
+    stamp = (stat.st_mtime_ns, stat.st_size)
+    if _read.get(str(path), (None,))[0] != stamp:
+        _read[str(path)] = (stamp, gestures.check_table(read_object(path), str(path)))
+    return _read[str(path)][1]
 
 
 def armature_of(obj):
@@ -102,7 +113,7 @@ def _user_keys(id_data, paths: tuple[str, ...]) -> bool:
     for fc in compat.fcurves_of(id_data):
         if fc.data_path not in paths or not len(fc.keyframe_points):
             continue
-        frames = np.array([k.co[0] for k in fc.keyframe_points])
+        frames = keying.key_frames(fc)
         inside = np.zeros(len(frames), dtype=bool)
         for a, b in ours.get(f"{fc.array_index}:{fc.data_path}", []):
             inside |= (frames >= a - 1e-4) & (frames <= b + 1e-4)

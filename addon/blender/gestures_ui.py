@@ -11,12 +11,10 @@ import bpy
 from ..engine.errors import LipSyncError
 from . import gestures
 from .operators import face
+from .panel import SidebarPanel
 
 
-class LIPSYNC_PT_gestures(bpy.types.Panel):
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Lip Sync"
+class LIPSYNC_PT_gestures(SidebarPanel, bpy.types.Panel):
     bl_label = "Gestures"
     bl_parent_id = "LIPSYNC_PT_main"
     bl_options = {"DEFAULT_CLOSED"}
@@ -35,7 +33,11 @@ class LIPSYNC_PT_gestures(bpy.types.Panel):
             obj = face(context)
         except LipSyncError:
             return
-        have, missing = gestures.describe(obj)
+        try:
+            have, missing = gestures.describe(obj)
+        except LipSyncError as exc:      # the studio's gestures.json, malformed
+            layout.label(text=str(exc), icon="ERROR")
+            return
         col = layout.column(align=True)
         for line in have:
             col.label(text=line, icon="CHECKMARK")

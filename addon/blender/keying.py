@@ -52,6 +52,11 @@ def _get(kp, attr, size, dtype):
     return arr.reshape(-1, size)
 
 
+def key_frames(fc) -> np.ndarray:
+    """The frames of ``fc``'s keys, read in bulk."""
+    return _get(fc.keyframe_points, "co", 2, np.float64)[:, 0] if len(fc.keyframe_points) else np.zeros(0)
+
+
 def replace_range(fc, first: float, last: float, frames=None, values=None, linear: bool = False) -> int:
     """Swap the keys of ``fc`` in [first, last] for new ones, in bulk.
 

@@ -260,9 +260,15 @@ Rhubarb ...)"""
         except Exception as exc:  # noqa: BLE001
             return _fail(self, exc)
         missing = mapping_mod.unmapped(vset, found.mapping)
-        have, lacks = gestures.describe(obj)
-        msg = f"{obj.name}: {found.describe(vset)}; gestures: " + "; ".join(have + [f"no {w}" for w in lacks])
-        self.report({"WARNING"} if missing else {"INFO"},
+        msg = f"{obj.name}: {found.describe(vset)}"
+        bad = False
+        try:
+            have, lacks = gestures.describe(obj)
+            msg += "; gestures: " + "; ".join(have + [f"no {w}" for w in lacks])
+        except LipSyncError as exc:      # the mapping stands; the studio's gestures.json is malformed
+            bad = True
+            msg += f"; gestures: {exc}"
+        self.report({"WARNING"} if missing or bad else {"INFO"},
                     msg + (f"; unmapped: {', '.join(missing)}" if missing else ""))
         return {"FINISHED"}
 

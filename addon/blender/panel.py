@@ -176,13 +176,16 @@ class LIPSYNC_UL_mapping(bpy.types.UIList):
         row.prop(item, "weight", text="")
 
 
-class _Panel:
+class SidebarPanel:
+    """Where every Lip Sync panel sits: the 3D View's sidebar, its Lip Sync tab."""
+
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Lip Sync"
 
 
-class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
+
+class LIPSYNC_PT_main(SidebarPanel, bpy.types.Panel):
     bl_label = "Lip Sync"
 
     def draw(self, context):
@@ -240,7 +243,7 @@ class LIPSYNC_PT_main(_Panel, bpy.types.Panel):
         sub.operator(LIPSYNC_OT_clear.bl_idname, icon="X", text="Clear")
 
 
-class LIPSYNC_PT_shapes(_Panel, bpy.types.Panel):
+class LIPSYNC_PT_shapes(SidebarPanel, bpy.types.Panel):
     bl_label = "Visemes and Shape Keys"
     bl_parent_id = "LIPSYNC_PT_main"
     bl_options = {"DEFAULT_CLOSED"}
@@ -275,7 +278,7 @@ class LIPSYNC_PT_shapes(_Panel, bpy.types.Panel):
             layout.label(text="Empty: Generate maps by name automatically", icon="INFO")
 
 
-class LIPSYNC_PT_emotion(_Panel, bpy.types.Panel):
+class LIPSYNC_PT_emotion(SidebarPanel, bpy.types.Panel):
     bl_label = "Emotion and Motion"
     bl_parent_id = "LIPSYNC_PT_main"
 

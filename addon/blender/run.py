@@ -387,18 +387,18 @@ def key(obj, plan: Plan, analysis: Analysis) -> Summary:
     animated = keying.user_animated(obj, sorted({k for mix in face.values() for k in mix}))
     line = keys.mesh_keys(result, plan.mapping, plan.closure, face, animated)
     found = gestures_bl.channels(obj)
+    lids_and_looks = set(found.shape_keys.values())
+    brows = {k for u in ("AU1", "AU2") for k in face.get(u, {})}
+    own = set(keying.user_animated(obj, sorted(lids_and_looks | brows)))
     if result.gestures is not None:
-        brows = {k for u in ("AU1", "AU2") for k in face.get(u, {})}
-        own = keying.user_animated(obj, sorted(set(found.shape_keys.values()) | brows))
         turning = gestures_bl.animated(obj, found)
-        line = keys.with_gestures(line, result.gestures, found, face, own + turning,
+        line = keys.with_gestures(line, result.gestures, found, face, sorted(own) + turning,
                                   head_elsewhere=gestures_bl.lone_head(obj))
         if gestures_bl.OBJECT_TURN in turning:
             line.gesture_kept.append(f"{obj.name}'s rotation")
     # Gesture keys an earlier run wrote here and this one does not (gestures
     # off, a channel now the user's own) go, as the expression's do.
-    user = set(keying.user_animated(obj, sorted(set(found.shape_keys.values()))))
-    line.dropped += sorted(set(found.shape_keys.values()) - set(line.names) - user - set(line.dropped))
+    line.dropped += sorted(lids_and_looks - set(line.names) - own - set(line.dropped))
     names, values = line.names, line.table()
     gone = sorted(set(names) - set(check_mesh(obj)))
     if gone:

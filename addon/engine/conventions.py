@@ -216,14 +216,21 @@ def load(path: str | os.PathLike) -> Convention:
     return from_dict(read_object(path), str(path))
 
 
+#: In a folder of conventions, the file that names a character's gesture
+#: channels (blinks, gaze, head: :func:`.gestures.check_table`), not a convention.
+GESTURES_FILE = "gestures.json"
+
+
 def load_all(extra_dirs: list[str | os.PathLike] = ()) -> list[Convention]:
     """The built-in conventions, then the user's (a user file with a
-    built-in's name replaces it)."""
+    built-in's name replaces it); :data:`GESTURES_FILE` is not one."""
     out: dict[str, Convention] = {}
     for folder in [DATA] + [Path(d) for d in extra_dirs] + user_dirs():
         if not Path(folder).is_dir():
             continue
         for p in sorted(Path(folder).glob("*.json")):
+            if p.name == GESTURES_FILE:
+                continue
             conv = load(p)
             out[conv.name] = conv
     return list(out.values())

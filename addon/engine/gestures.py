@@ -41,6 +41,7 @@ import numpy as np
 
 from .alignment import Alignment
 from .datafile import read_object
+from .errors import PresetError
 from .language.phonemes import phone_class
 from .presets import Gestures
 
@@ -397,6 +398,25 @@ class Channels:
         return out
 
 
+def check_table(doc: dict, source: str) -> dict:
+    """A studio's own channel table (``gestures.json``: ``shape_keys`` and
+    ``bones``, each role -> list of names), checked: a malformed field is a
+    :class:`.errors.PresetError` naming the file and the field."""
+    roles = {"shape_keys": set(table()["shape_keys"]), "bones": set(table()["bones"])}
+    for kind in doc:
+        if kind not in roles:
+            raise PresetError(source, kind, "is not a field of a gestures table (expected shape_keys, bones)")
+        if not isinstance(doc[kind], dict):
+            raise PresetError(source, kind, "must map roles (blink_L, head ...) to lists of names")
+        for role, names in doc[kind].items():
+            if role not in roles[kind]:
+                raise PresetError(source, f"{kind}.{role}",
+                                  f"is not a role (expected one of: {', '.join(sorted(roles[kind]))})")
+            if not isinstance(names, list) or not all(isinstance(n, str) and n for n in names):
+                raise PresetError(source, f"{kind}.{role}", "must be a list of names")
+    return doc
+
+
 def _plain(name: str) -> str:
     return name.rsplit(":", 1)[-1].lower()
 
@@ -492,5 +512,5 @@ def bone_turns(motion: Motion, channels: Channels) -> dict[str, np.ndarray]:
     return out
 
 
-__all__ = ["Channels", "Motion", "accents", "blink_times", "bone_turns", "character_turns", "compute",
+__all__ = ["Channels", "Motion", "accents", "blink_times", "bone_turns", "character_turns", "check_table", "compute",
            "in_bone_frame", "match", "pauses", "shape_key_curves", "table"]

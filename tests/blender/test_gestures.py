@@ -372,3 +372,20 @@ def test_a_pose_the_user_set_is_kept_under_the_motion_and_put_back_by_clear(empt
     assert bpy.ops.emotive_lipsync.clear(mesh=face.name) == {"FINISHED"}
     back = arm.pose.bones["Head"].rotation_quaternion
     assert Quaternion(back).rotation_difference(tilt).angle < 1e-4
+
+
+def test_a_studios_gestures_file_names_its_channels_and_a_bad_one_is_refused(empty, take, tmp_path, monkeypatch):
+    userdata = import_module(MODULE + ".blender.userdata")
+    monkeypatch.setattr(userdata, "conventions_folder", lambda: str(tmp_path))
+    keys, _ = HEADS["oculus"]
+    obj = build_head("Studio", {**keys, "Lid_Close_L": {}, "Lid_Close_R": {}})
+    (tmp_path / "gestures.json").write_text('{"shape_keys": {"blink_L": ["Lid_Close_L"], "blink_R": ["Lid_Close_R"]}}')
+    generate(obj, take)
+    assert fcurve_values(obj, "Lid_Close_L")[1].max() > 0.9
+    # A malformed file: Generate is refused with the file and field named, nothing changes.
+    before = fcurve_values(obj, "Lid_Close_L")
+    (tmp_path / "gestures.json").write_text('{"shape_keys": {"blink_L": "Lid_Close_L"}}')
+    with pytest.raises(RuntimeError, match=r"gestures\.json.*shape_keys\.blink_L.*list of names"):
+        bpy.ops.emotive_lipsync.generate(filepath=take[0], frame=FIRST + 100, mesh=obj.name, text=take[1])
+    after = fcurve_values(obj, "Lid_Close_L")
+    assert np.array_equal(before[0], after[0]) and np.array_equal(before[1], after[1])
