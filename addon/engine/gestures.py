@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import pauses as pauses_mod
 from .alignment import Alignment
 from .datafile import read_object
 from .errors import PresetError
@@ -102,15 +103,7 @@ def _speech(al: Alignment) -> list[tuple[float, float]]:
 def pauses(al: Alignment, min_pause: float | None = None) -> list[tuple[float, float]]:
     """Gaps of at least ``min_pause`` s (``pause`` in ``data/gestures.json``)
     with no word spoken, before the first word and after the last included."""
-    min_pause = table()["pause"] if min_pause is None else min_pause
-    out, t = [], 0.0
-    for a, b in _speech(al):
-        if a - t >= min_pause:
-            out.append((t, a))
-        t = max(t, b)
-    if al.duration - t >= min_pause:
-        out.append((t, al.duration))
-    return out
+    return pauses_mod.gaps(_speech(al), al.duration, table()["pause"] if min_pause is None else min_pause)
 
 
 def accents(al: Alignment, times: np.ndarray, pitch: np.ndarray, intensity: np.ndarray) -> list[float]:
