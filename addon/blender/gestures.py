@@ -72,6 +72,11 @@ def channels(obj) -> gestures.Channels:
     key = obj.data.shape_keys if obj.type == "MESH" else None
     names = [kb.name for kb in key.key_blocks[1:]] if key is not None else []
     arm = armature_of(obj)
+    if arm is not None and arm.library is not None:
+        found = gestures.match(names, [], _extra())
+        found.bones_locked = (f"head and eye bones ({arm.name!r} is linked from a library: make a library override "
+                              "of it to animate them)")
+        return found
     bones = [b.name for b in arm.data.bones] if arm is not None else []
     return gestures.match(names, bones, _extra())
 

@@ -377,12 +377,16 @@ class Channels:
 
     shape_keys: dict[str, str] = field(default_factory=dict)
     bones: dict[str, str] = field(default_factory=dict)
+    #: Why the bones cannot be keyed, where they cannot (an armature linked from a library).
+    bones_locked: str = ""
 
     def missing(self, head_elsewhere: bool = False) -> list[str]:
         """What the character lacks, in words: blinks, gaze, head."""
         out = []
         if not any(r.startswith("blink") for r in self.shape_keys):
             out.append("blinks (no eyeBlink or Fcl_EYE_Close keys)")
+        if self.bones_locked:
+            return out + [self.bones_locked]
         if not any(r.startswith("look") for r in self.shape_keys) and \
                 not {"eye_L", "eye_R"} & set(self.bones):
             out.append("gaze (no eyeLook keys or eye bones)")

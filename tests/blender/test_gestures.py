@@ -389,3 +389,26 @@ def test_a_studios_gestures_file_names_its_channels_and_a_bad_one_is_refused(emp
         bpy.ops.emotive_lipsync.generate(filepath=take[0], frame=FIRST + 100, mesh=obj.name, text=take[1])
     after = fcurve_values(obj, "Lid_Close_L")
     assert np.array_equal(before[0], after[0]) and np.array_equal(before[1], after[1])
+
+
+def test_an_armature_linked_from_a_library_is_not_touched(empty, take, tmp_path):
+    """The face is local, its armature linked from another file: the face
+    blinks, the bones are left as they are and the report says why."""
+    arm, face = _avatar()
+    lib = str(tmp_path / "rig.blend")
+    bpy.data.libraries.write(lib, {arm})
+    face.parent = None
+    for mod in face.modifiers:
+        face.modifiers.remove(mod)
+    bpy.data.objects.remove(arm)
+    with bpy.data.libraries.load(lib, link=True) as (src, dst):
+        dst.objects = ["Armature"]
+    linked = dst.objects[0]
+    bpy.context.scene.collection.objects.link(linked)
+    mod = face.modifiers.new("Armature", "ARMATURE")
+    mod.object = linked
+    generate(face, take)
+    assert fcurve_values(face, "eyeBlinkLeft") is not None
+    assert linked.animation_data is None
+    said = import_module(MODULE + ".blender.gestures").describe(face)[1]
+    assert any("is linked from a library" in s for s in said), said
