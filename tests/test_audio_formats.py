@@ -170,9 +170,11 @@ def test_the_same_line_in_every_format_gives_the_same_alignment(tmp_path, origin
 
     result = analyze(str(path), TEXT)
     assert [w.text for w in result.alignment.words] == [w.text for w in ref_result.alignment.words]
-    # Every phone boundary within 10 ms of the WAV's; lossless at the line's own rate, the very same.
+    # Every phone boundary within 20 ms of the WAV's (a 10 ms frame, and the ms the boundary model's
+    # correction follows the sound by: a lossy codec's cut of the highest band moves it); lossless at
+    # the line's own rate, the very same.
     moved = np.abs(boundaries(result) - boundaries(ref_result))
-    assert moved.max() <= 0.0101, (moved.max(), np.mean(moved > 0.0101))
+    assert moved.max() <= 0.0201, (moved.max(), np.mean(moved > 0.0201))
     if CASES[case][2]:
         assert moved.max() == 0.0
 

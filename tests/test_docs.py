@@ -88,7 +88,8 @@ SLOW = {
 #: and exits 0), "runs" (on synthetic lines or the shipped sample; exits 0), "slow" (the
 #: same, but for 10 s to minutes: run with LIPSYNC_SLOW_TESTS=1).
 BENCH = {
-    "alignment_accuracy": "skips", "arousal": "skips", "batch_throughput": "skips", "coverage": "skips",
+    "alignment_accuracy": "skips", "arousal": "skips", "batch_throughput": "skips", "boundary_model": "skips",
+    "coverage": "skips",
     "crossval": "skips", "crossval_languages": "skips", "crossval_offscript": "skips", "false_alarms": "skips",
     "emodb": "skips",
     "languages": "skips", "learn_real_speech": "skips", "offscript": "skips", "rhubarb_compare": "skips",

@@ -1,0 +1,182 @@
+"""Phone starts refined by the sound around them: a small boundary-correction model.
+
+After the offsets of :mod:`.boundaries` (one per pair of phone classes), a
+boundary still lies on the decoder's 10 ms grid, and how far it is from where
+a listener hears the new phone depends on the sound itself: where the energy
+of each frequency band rises or falls around it.  HMM aligners are commonly
+corrected this way, by a model of the boundary's error trained on
+hand-labelled speech (Stolcke et al. 2014).
+
+:func:`refine_boundaries` predicts each boundary's error from
+
+* the classes of the phones on either side (:func:`.boundaries.boundary_class`);
+* the change of the level (dB) of five frequency bands over 20 ms
+  (:data:`BANDS` Hz; 20 ms windows every 5 ms), at seven times from 30 ms
+  before the boundary to 30 ms after it;
+* that change again for each class of the phone after the boundary (the
+  same rise means a vowel's start, a fricative's or a stop's release);
+
+a linear model (ridge regression) whose weights are in
+``data/boundary_model.json``, and moves the boundary by the error predicted,
+at most ``max_shift`` s either way.  Every phone keeps ``min_phone`` s; a
+boundary after a pause moves the phone's start alone; the start of /p b m/
+(``leave``: where the lips close) stays.  Words placed by estimate,
+recognised words, words not spoken and words read from IPA (another
+language) are left as they are: the model was fitted on English read speech
+(the development speakers of TIMIT, ``bench/boundary_model.py``, which also
+prints its cross-validated figures and refits it).
+
+:func:`refine_alignment` is the transcript aligner's last step
+(:func:`.transcript.align_audio`), on the alignment the checks of the take
+have settled: they weigh the aligner's own phones, and keep doing so.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..audio import Audio
+from ..errors import LipSyncError
+from .boundaries import boundary_class
+from .model import Alignment
+from .onsets import FROM_IPA
+
+MODEL_FILE = Path(__file__).resolve().parent.parent / "data" / "boundary_model.json"
+#: The fields a model file must hold.
+FIELDS = ("classes", "bands", "hop", "window", "step", "offsets", "max_shift", "min_phone", "weights")
+
+
+@lru_cache(maxsize=4)
+def _load(path: str, stamp: float) -> dict:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError) as exc:
+        raise LipSyncError(f"{path}: the boundary model cannot be read ({exc})") from None
+    missing = [f for f in FIELDS if f not in doc]
+    if missing:
+        raise LipSyncError(f"{path}: the boundary model lacks {', '.join(missing)}")
+    doc = dict(doc)
+    doc["weights"] = np.asarray(doc["weights"], float)
+    if doc["weights"].shape != (n_features(doc),):
+        raise LipSyncError(f"{path}: the boundary model has {doc['weights'].size} weights where its "
+                           f"classes, bands and offsets need {n_features(doc)}")
+    return doc
+
+
+def model(path: str | Path = MODEL_FILE) -> dict:
+    """The boundary model at ``path`` (read again when the file changes)."""
+    p = Path(path)
+    try:
+        stamp = p.stat().st_mtime
+    except OSError:
+        raise LipSyncError(f"{p}: the boundary model is missing") from None
+    return _load(str(p), stamp)
+
+
+def n_features(doc: dict) -> int:
+    c, a = len(doc["classes"]), len(doc["bands"]) * len(doc["offsets"])
+    return 1 + 2 * c + a + c * a
+
+
+def band_changes(audio: Audio, doc: dict) -> np.ndarray:
+    """Per ``hop`` (frame k centred at k * hop s), the change (dB) of each
+    band's level from ``step`` s before to ``step`` s after."""
+    x = np.asarray(audio.samples, np.float64)
+    rate = audio.rate
+    n, h = int(round(doc["window"] * rate)), int(round(doc["hop"] * rate))
+    frames = np.lib.stride_tricks.sliding_window_view(np.pad(x, (n // 2, n)), n)[::h]
+    f = np.fft.rfft(frames * np.hanning(n), axis=1)
+    freq = np.fft.rfftfreq(n, 1.0 / rate)
+    bands = np.stack([(freq >= lo) & (freq < hi) for lo, hi in doc["bands"]], 1).astype(np.float64)
+    levels = 10 * np.log10((f.real ** 2 + f.imag ** 2) @ bands + 1e-4)
+    s = int(round(doc["step"] / doc["hop"]))
+    change = np.zeros_like(levels)
+    if len(levels) > 2 * s:
+        change[s:-s] = levels[2 * s:] - levels[:-2 * s]
+    return change
+
+
+def features(audio: Audio, phones: list[tuple[str, float, float]], doc: dict,
+             change: np.ndarray | None = None) -> np.ndarray:
+    """The model's features of the start of every phone of ``phones`` (in
+    order; the phone before each is the one before it in the list), one row
+    per phone; the first phone's row is zeros."""
+    classes = list(doc["classes"])
+    c = len(classes)
+    change = band_changes(audio, doc) if change is None else change
+    offsets = np.asarray(doc["offsets"], int)
+    rows = np.zeros((len(phones), n_features(doc)))
+    for i in range(1, len(phones)):
+        k = int(round(phones[i][1] / doc["hop"]))
+        acoustic = change[np.clip(k + offsets, 0, len(change) - 1)].ravel() / 10.0
+        onehot = np.zeros(2 * c)
+        right, left = boundary_class(phones[i][0]), boundary_class(phones[i - 1][0])
+        if right in classes:
+            onehot[classes.index(right)] = 1.0
+        if left in classes:
+            onehot[c + classes.index(left)] = 1.0
+        rows[i] = np.concatenate([[1.0], onehot, acoustic, np.outer(onehot[:c], acoustic).ravel()])
+    return rows
+
+
+def refine_boundaries(audio: Audio, result: list, estimated: list[bool], skip: list[bool] | None = None,
+                      doc: dict | None = None) -> None:
+    """Move the phone starts of ``result`` (per word, [(phone, start, end)])
+    by the error the boundary model predicts, in place.  Words ``estimated``
+    or ``skip`` (read from IPA) keep theirs."""
+    doc = model() if doc is None else doc
+    where = [(wi, k) for wi, ph in enumerate(result) if ph for k in range(len(ph))]
+    if len(where) < 2:
+        return
+    flat = [result[wi][k] for wi, k in where]
+    shift = np.clip(features(audio, flat, doc) @ doc["weights"], -doc["max_shift"], doc["max_shift"])
+    keep = float(doc["min_phone"])
+    leave = set(doc.get("leave", ()))
+    for i in range(1, len(where)):
+        wi, k = where[i]
+        if estimated[wi] or (skip is not None and skip[wi]) or shift[i] == 0.0 or flat[i][0] in leave:
+            continue
+        pw, pk = where[i - 1]
+        prev = result[pw][pk]
+        p, a, b = result[wi][k]
+        joined = abs(prev[2] - a) < 1e-6
+        if joined and (estimated[pw] or (skip is not None and skip[pw])):
+            continue            # the phone before keeps its end
+        low = prev[1] + keep if joined else max(prev[2], prev[1] + keep)
+        t = min(max(a - float(shift[i]), low), b - keep)
+        if (t - a) * -shift[i] <= 0:        # no room to move the way the model says
+            continue
+        result[wi][k] = (p, t, b)
+        if joined:
+            result[pw][pk] = (prev[0], prev[1], t)
+
+
+def refine_alignment(audio: Audio, al: Alignment, doc: dict | None = None) -> None:
+    """:func:`refine_boundaries` on the phones of ``al`` (aligned to
+    ``audio``), in place; the words' times follow their phones."""
+    result, phones, left, skip = by_word(al)
+    refine_boundaries(audio, result, left, skip, doc)
+    for k, w in enumerate(al.words):
+        for p, (_, a, b) in zip(phones[k], result[k]):
+            p.start, p.end = a, b
+        if phones[k]:
+            w.start, w.end = phones[k][0].start, phones[k][-1].end
+
+
+def by_word(al: Alignment) -> tuple[list, list, list[bool], list[bool]]:
+    """The phones of ``al`` per word as :func:`refine_boundaries` takes them
+    ([(phone, start, end)]), the phones themselves, and the words it leaves
+    (placed by estimate, recognised, not spoken) or skips (read from IPA)."""
+    result: list[list[tuple[str, float, float]]] = [[] for _ in al.words]
+    phones: list[list] = [[] for _ in al.words]
+    for p in al.phones:
+        result[p.word_index].append((p.phone, p.start, p.end))
+        phones[p.word_index].append(p)
+    left = [w.estimated or w.recognized or not w.spoken or any(p.estimated for p in phones[k])
+            for k, w in enumerate(al.words)]
+    return result, phones, left, [w.source in FROM_IPA for w in al.words]

@@ -1,0 +1,77 @@
+"""The boundary-correction model (alignment/refine.py, data/boundary_model.json)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from addon.engine.alignment import refine
+from addon.engine.audio import Audio
+from addon.engine.errors import LipSyncError
+
+RATE = 16000
+
+
+def fricative_then_vowel(vowel_at=0.5):
+    """Silence, a fricative's noise from 0.3 s, a vowel (120 Hz and its harmonics) from ``vowel_at`` to 0.9 s."""
+    t = np.arange(int(1.2 * RATE)) / RATE
+    x = np.zeros_like(t)
+    noise = (t >= 0.3) & (t < vowel_at)
+    x[noise] = 0.05 * np.random.default_rng(0).normal(size=noise.sum())
+    v = (t >= vowel_at) & (t < 0.9)
+    x[v] = sum(0.3 / k * np.sin(2 * np.pi * 120 * k * t[v]) for k in range(1, 25))
+    return Audio(x.astype(np.float32), RATE)
+
+
+@pytest.mark.parametrize("off", [-0.015, 0.0, 0.015])
+def test_a_vowel_start_moves_to_where_the_vowel_begins(off):
+    audio = fricative_then_vowel()
+    result = [[("S", 0.3, 0.5 + off), ("AA", 0.5 + off, 0.9)]]
+    refine.refine_boundaries(audio, result, [False])
+    assert abs(result[0][1][1] - 0.5) <= 0.005
+    assert result[0][0][2] == result[0][1][1]          # the fricative ends where the vowel starts
+
+
+def test_moves_at_most_max_shift_and_keeps_every_phone_its_length():
+    audio = fricative_then_vowel()
+    doc = dict(refine.model())
+    doc["weights"] = np.zeros_like(doc["weights"])
+    doc["weights"][0] = 1.0                             # every boundary "a second late"
+    result = [[("S", 0.3, 0.34), ("AA", 0.34, 0.9)], [("T", 0.9, 1.0)]]
+    refine.refine_boundaries(audio, result, [False, False], doc=doc)
+    assert result[0][1][1] == pytest.approx(0.33)      # the fricative keeps min_phone (30 ms)
+    assert result[1][0][1] == pytest.approx(0.9 - doc["max_shift"])
+    assert result[0][1][2] == result[1][0][1]
+
+
+def test_words_estimated_or_read_from_ipa_and_labial_starts_keep_theirs():
+    audio = fricative_then_vowel()
+    doc = dict(refine.model())
+    doc["weights"] = np.zeros_like(doc["weights"])
+    doc["weights"][0] = -1.0                            # every boundary "early"
+    result = [[("S", 0.3, 0.5)], [("AA", 0.5, 0.7)], [("M", 0.7, 0.8)], [("IY", 0.8, 0.9)], [("K", 0.95, 1.0)]]
+    before = json.dumps(result)
+    refine.refine_boundaries(audio, result, [False, True, False, False, False], [False, False, False, True, False],
+                             doc=doc)
+    after = json.loads(json.dumps(result))
+    want = json.loads(before)
+    want[4][0][1] = 0.95 + doc["max_shift"]             # after a pause: the start alone moves
+    assert after == want
+
+
+def test_the_shipped_model_is_read_and_a_broken_one_is_named(tmp_path):
+    doc = refine.model()
+    assert doc["weights"].shape == (refine.n_features(doc),) and np.abs(doc["weights"]).sum() > 0
+    bad = json.loads(refine.MODEL_FILE.read_text(encoding="utf-8"))
+    bad["weights"] = bad["weights"][:-1]
+    path = tmp_path / "boundary_model.json"
+    path.write_text(json.dumps(bad), encoding="utf-8")
+    with pytest.raises(LipSyncError, match=r"boundary_model.json: the boundary model has 294 weights"):
+        refine.model(path)
+    del bad["classes"]
+    path.write_text(json.dumps(bad), encoding="utf-8")
+    with pytest.raises(LipSyncError, match="lacks classes"):
+        refine.model(path)
+    path.write_text("{", encoding="utf-8")
+    with pytest.raises(LipSyncError, match="cannot be read"):
+        refine.model(path)
