@@ -46,8 +46,8 @@ def aligned(doc: dict) -> list[dict]:
     saved = transcript.refine_alignment
 
     def record(audio, al, doc=None):
-        result, _, left, skip = refine.by_word(al)
-        calls.append((audio, result, left, skip))
+        result, _, left = refine.by_word(al)
+        calls.append((audio, result, left))
 
     transcript.refine_alignment = record
     lines = []
@@ -55,11 +55,11 @@ def aligned(doc: dict) -> list[dict]:
         for name, wav, text, ref in sentences(need_data() / "timit_nltk", DEV + HELD, None):
             calls.clear()
             al = align_audio(audio_mod.load(wav), text)
-            audio, result, est, skip = calls[-1]
+            audio, result, left = calls[-1]
             flat = [p for ph in result if ph for p in ph]
             pairs = match_sets([p.phone for p in al.phones], [p.phones for p in ref])
-            lines.append(dict(name=name, speaker=name.split("/")[0], audio=audio, result=result, est=est,
-                              skip=skip, phones=flat, pairs=pairs, ref=[ref[j].start for _, j in pairs],
+            lines.append(dict(name=name, speaker=name.split("/")[0], audio=audio, result=result, left=left,
+                              phones=flat, pairs=pairs, ref=[ref[j].start for _, j in pairs],
                               pbm=[al.phones[i].phone in PBM for i, _ in pairs],
                               X=refine.features(audio, flat, doc)))
     finally:
@@ -82,7 +82,7 @@ def errors(lines: list[dict], doc: dict, weights: np.ndarray | None) -> tuple[np
     for ln in lines:
         result = copy.deepcopy(ln["result"])
         if weights is not None:
-            refine.refine_boundaries(ln["audio"], result, ln["est"], ln["skip"], dict(doc, weights=weights))
+            refine.refine_boundaries(ln["audio"], result, ln["left"], dict(doc, weights=weights))
         flat = [p for ph in result if ph for p in ph]
         err += [round(abs(flat[i][1] - r), 4) for (i, _), r in zip(ln["pairs"], ln["ref"])]
         pbm += ln["pbm"]
