@@ -86,17 +86,25 @@ def n_features(doc: dict) -> int:
     return 1 + 2 * c + a + c * a
 
 
+#: Frames transformed at a time: a long clip's spectra are never held whole (2,000 frames of 5 ms
+#: hops are 10 s of audio, some 5 MB).
+BLOCK = 2000
+
+
 def band_changes(audio: Audio, doc: dict) -> np.ndarray:
     """Per ``hop`` (frame k centred at k * hop s), the change (dB) of each
     band's level from ``step`` s before to ``step`` s after."""
-    x = np.asarray(audio.samples, np.float64)
+    x = np.asarray(audio.samples, np.float32)
     rate = audio.rate
     n, h = int(round(doc["window"] * rate)), int(round(doc["hop"] * rate))
     frames = np.lib.stride_tricks.sliding_window_view(np.pad(x, (n // 2, n)), n)[::h]
-    f = np.fft.rfft(frames * np.hanning(n), axis=1)
     freq = np.fft.rfftfreq(n, 1.0 / rate)
     bands = np.stack([(freq >= lo) & (freq < hi) for lo, hi in doc["bands"]], 1).astype(np.float64)
-    levels = 10 * np.log10((f.real ** 2 + f.imag ** 2) @ bands + 1e-4)
+    window = np.hanning(n)
+    levels = np.empty((len(frames), len(bands[0])))
+    for a in range(0, len(frames), BLOCK):
+        f = np.fft.rfft(frames[a:a + BLOCK] * window, axis=1)
+        levels[a:a + BLOCK] = 10 * np.log10((f.real ** 2 + f.imag ** 2) @ bands + 1e-4)
     s = int(round(doc["step"] / doc["hop"]))
     change = np.zeros_like(levels)
     if len(levels) > 2 * s:
