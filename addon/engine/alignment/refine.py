@@ -10,9 +10,9 @@ hand-labelled speech (Stolcke et al. 2014).
 :func:`refine_boundaries` predicts each boundary's error from
 
 * the classes of the phones on either side (:func:`.boundaries.boundary_class`);
-* the change of the level (dB) of five frequency bands over 20 ms
-  (:data:`BANDS` Hz; 20 ms windows every 5 ms), at seven times from 30 ms
-  before the boundary to 30 ms after it;
+* the change of the level (dB) of five frequency bands (the file's
+  ``bands``) over 20 ms (20 ms windows every 5 ms), at seven times from
+  30 ms before the boundary to 30 ms after it;
 * that change again for each class of the phone after the boundary (the
   same rise means a vowel's start, a fricative's or a stop's release);
 
@@ -54,7 +54,7 @@ FIELDS = ("classes", "bands", "hop", "window", "step", "offsets", "max_shift", "
 
 
 @lru_cache(maxsize=4)
-def _load(path: str, stamp: float) -> dict:
+def _load(path: str, stamp: float) -> dict:      # ``stamp``: the file's mtime, so a changed file is read again
     try:
         with open(path, encoding="utf-8") as fh:
             doc = json.load(fh)
