@@ -44,6 +44,17 @@ def test_moves_at_most_max_shift_and_keeps_every_phone_its_length():
     assert result[0][1][2] == result[1][0][1]
 
 
+def test_phones_too_short_to_share_keep_their_boundary():
+    # Phones of a line aligned on a slowed copy, scaled back, can be shorter than min_phone together.
+    audio = fricative_then_vowel()
+    doc = dict(refine.model())
+    doc["weights"] = np.zeros_like(doc["weights"])
+    doc["weights"][0] = 1.0                             # "late": the start would move earlier
+    result = [[("S", 0.48, 0.50), ("AA", 0.50, 0.505)]]
+    refine.refine_boundaries(audio, result, [False], doc=doc)
+    assert result == [[("S", 0.48, 0.50), ("AA", 0.50, 0.505)]]
+
+
 def test_words_left_and_labial_starts_keep_theirs():
     audio = fricative_then_vowel()
     doc = dict(refine.model())

@@ -158,6 +158,8 @@ def refine_boundaries(audio: Audio, result: list, left: list[bool], doc: dict | 
         if joined and left[pw]:
             continue            # the phone before keeps its end
         low = prev[1] + keep if joined else max(prev[2], prev[1] + keep)
+        if low > b - keep:
+            continue            # two phones too short to share (a line aligned on a slowed copy)
         t = min(max(a - float(shift[i]), low), b - keep)
         if (t - a) * -shift[i] <= 0:        # no room to move the way the model says
             continue
