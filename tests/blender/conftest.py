@@ -129,6 +129,15 @@ def scene(extension):
     return sc
 
 
+@pytest.fixture
+def empty_scene(extension):
+    """An empty file at 30 fps."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.fps, sc.render.fps_base = 30, 1.0
+    return sc
+
+
 #: Where the installed extension's own files are (not its bundled wheels).
 EXTENSION_DIR = os.path.join(_USER, "extensions", "user_default", "emotive_lipsync")
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import FIXTURES, MODULE, add_strip, keyed_shape_keys
-from heads import FPS, HEADS, build_head, measure, span_frames
+from heads import HEADS, build_head, measure, span_frames
 
 PIE = os.path.join(FIXTURES, "fast_bilabials.wav")
 SLOW_PIE = os.path.join(FIXTURES, "slow_bilabials.wav")
@@ -32,14 +32,6 @@ EXPECTED = {
 
 def _convention_label(name):
     return import_module(f"{MODULE}.engine.conventions").load(name).label
-
-
-@pytest.fixture
-def empty_scene(extension):
-    bpy.ops.wm.read_homefile(use_empty=True)
-    sc = bpy.context.scene
-    sc.render.fps, sc.render.fps_base = FPS, 1.0
-    return sc
 
 
 def _phones(path):

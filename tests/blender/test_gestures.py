@@ -51,14 +51,6 @@ def engine_result(take, extension):
     return pipeline.analyze(decode(take[0]), take[1], settings)
 
 
-@pytest.fixture
-def empty(extension):
-    bpy.ops.wm.read_homefile(use_empty=True)
-    sc = bpy.context.scene
-    sc.render.fps, sc.render.fps_base = FPS, 1.0
-    return sc
-
-
 def generate(obj, take, **more):
     result = bpy.ops.emotive_lipsync.generate("EXEC_DEFAULT", True, filepath=take[0], frame=FIRST, mesh=obj.name,
                                               text=take[1], **more)
@@ -113,7 +105,7 @@ def check_head(angles_deg, result):
 
 
 @pytest.fixture
-def human_head(empty, head_data):
+def human_head(empty_scene, head_data):
     return human.build("Human", "arkit")
 
 
@@ -212,7 +204,7 @@ def _bone_world(arm, name, frame):
 
 
 @pytest.mark.parametrize("euler_head", [False, True], ids=["quaternion", "euler"])
-def test_a_bone_avatar_turns_its_head_neck_and_eyes(empty, take, engine_result, euler_head):
+def test_a_bone_avatar_turns_its_head_neck_and_eyes(empty_scene, take, engine_result, euler_head):
     arm, face = _avatar(euler_head)
     generate(face, take)
     n = len(engine_result.times)
@@ -251,7 +243,7 @@ def test_a_bone_avatar_turns_its_head_neck_and_eyes(empty, take, engine_result, 
                    for fc in compat.fcurves_of(arm))
 
 
-def test_a_head_bone_the_user_animated_is_left_alone(empty, take):
+def test_a_head_bone_the_user_animated_is_left_alone(empty_scene, take):
     arm, face = _avatar()
     pb = arm.pose.bones["Head"]
     pb.rotation_quaternion = (0.99, 0.1, 0.0, 0.0)
@@ -266,7 +258,7 @@ def test_a_head_bone_the_user_animated_is_left_alone(empty, take):
     assert [k.co[0] for k in fc.keyframe_points] == [12.0]
 
 
-def test_a_vroid_face_blinks_on_its_own_keys(empty, take, engine_result):
+def test_a_vroid_face_blinks_on_its_own_keys(empty_scene, take, engine_result):
     keys, _ = HEADS["vroid"]
     obj = build_head("Face", {**keys, "Fcl_EYE_Close_L": {}, "Fcl_EYE_Close_R": {}})
     generate(obj, take)
@@ -277,7 +269,7 @@ def test_a_vroid_face_blinks_on_its_own_keys(empty, take, engine_result):
     assert fcurve_values(obj, "Fcl_EYE_Close") is None        # the eyes' own keys, not the one closing both
 
 
-def test_the_command_line_turns_gestures_off(empty, take):
+def test_the_command_line_turns_gestures_off(empty_scene, take):
     arm, face = _avatar()
     command = import_module(MODULE + ".blender.command")
     assert command.execute(["--audio", take[0], "--mesh", face.name, "--text", take[1], "--no-gestures"]) == 0
@@ -288,7 +280,7 @@ def test_the_command_line_turns_gestures_off(empty, take):
     assert fcurve_values(face, "eyeBlinkLeft") is not None
 
 
-def test_auto_map_says_which_gestures_the_face_can_show(empty, capsys):
+def test_auto_map_says_which_gestures_the_face_can_show(empty_scene, capsys):
     _arm, face = _avatar()
     assert bpy.ops.emotive_lipsync.auto_map(mesh=face.name) == {"FINISHED"}
     said = capsys.readouterr().out
@@ -301,7 +293,7 @@ def test_auto_map_says_which_gestures_the_face_can_show(empty, capsys):
     assert "no blinks" in said and "no gaze" in said and "no head" not in said, said   # the object turns
 
 
-def test_the_gltf_export_carries_the_head_eyes_and_blinks(empty, take, tmp_path):
+def test_the_gltf_export_carries_the_head_eyes_and_blinks(empty_scene, take, tmp_path):
     """A game pipeline's route: the avatar exported to glTF carries the head,
     neck and eye bones' rotations and the blinks as morph-target weights."""
     from test_gltf import GLTF_EXPORT, _accessor, _call, _enable, _morph_animation, _read_gltf
@@ -356,7 +348,7 @@ def test_the_panel_lists_the_channels_found_and_the_ones_missing(human_head):
     assert "No gaze (no eyeLook keys or eye bones)" in layout.labels
 
 
-def test_a_pose_the_user_set_is_kept_under_the_motion_and_put_back_by_clear(empty, take, engine_result):
+def test_a_pose_the_user_set_is_kept_under_the_motion_and_put_back_by_clear(empty_scene, take, engine_result):
     """A head the animator tilted (a pose, no keys) moves about that tilt,
     on every Generate alike, and Clear leaves it tilted as it was."""
     arm, face = _avatar()
@@ -374,7 +366,7 @@ def test_a_pose_the_user_set_is_kept_under_the_motion_and_put_back_by_clear(empt
     assert Quaternion(back).rotation_difference(tilt).angle < 1e-4
 
 
-def test_a_studios_gestures_file_names_its_channels_and_a_bad_one_is_refused(empty, take, tmp_path, monkeypatch):
+def test_a_studios_gestures_file_names_its_channels_and_a_bad_one_is_refused(empty_scene, take, tmp_path, monkeypatch):
     userdata = import_module(MODULE + ".blender.userdata")
     monkeypatch.setattr(userdata, "conventions_folder", lambda: str(tmp_path))
     keys, _ = HEADS["oculus"]
@@ -391,7 +383,7 @@ def test_a_studios_gestures_file_names_its_channels_and_a_bad_one_is_refused(emp
     assert np.array_equal(before[0], after[0]) and np.array_equal(before[1], after[1])
 
 
-def test_an_armature_linked_from_a_library_is_not_touched(empty, take, tmp_path):
+def test_an_armature_linked_from_a_library_is_not_touched(empty_scene, take, tmp_path):
     """The face is local, its armature linked from another file: the face
     blinks, the bones are left as they are and the report says why."""
     arm, face = _avatar()
