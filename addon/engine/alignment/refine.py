@@ -86,25 +86,30 @@ def n_features(doc: dict) -> int:
     return 1 + 2 * c + a + c * a
 
 
-#: Frames transformed at a time: a long clip's spectra are never held whole (2,000 frames of 5 ms
-#: hops are 10 s of audio, some 5 MB).
+#: Frames transformed at a time: a long clip's samples and spectra are read a block at a time, never
+#: held whole (2,000 frames of 5 ms hops are 10 s of audio).
 BLOCK = 2000
 
 
 def band_changes(audio: Audio, doc: dict) -> np.ndarray:
     """Per ``hop`` (frame k centred at k * hop s), the change (dB) of each
     band's level from ``step`` s before to ``step`` s after."""
-    x = np.asarray(audio.samples, np.float32)
-    rate = audio.rate
+    rate, total = audio.rate, len(audio.samples)
     n, h = int(round(doc["window"] * rate)), int(round(doc["hop"] * rate))
-    frames = np.lib.stride_tricks.sliding_window_view(np.pad(x, (n // 2, n)), n)[::h]
+    count = -(-(total + n // 2 + 1) // h)            # frames whose window starts within the clip (or its padding)
     freq = np.fft.rfftfreq(n, 1.0 / rate)
     bands = np.stack([(freq >= lo) & (freq < hi) for lo, hi in doc["bands"]], 1).astype(np.float64)
     window = np.hanning(n)
-    levels = np.empty((len(frames), len(bands[0])))
-    for a in range(0, len(frames), BLOCK):
-        f = np.fft.rfft(frames[a:a + BLOCK] * window, axis=1)
-        levels[a:a + BLOCK] = 10 * np.log10((f.real ** 2 + f.imag ** 2) @ bands + 1e-4)
+    levels = np.empty((count, len(doc["bands"])))
+    for k0 in range(0, count, BLOCK):
+        k1 = min(count, k0 + BLOCK)
+        lo, hi = k0 * h - n // 2, (k1 - 1) * h + n - n // 2
+        seg = np.zeros(hi - lo)
+        a, b = max(0, lo), min(total, hi)
+        if b > a:
+            seg[a - lo:b - lo] = audio.samples[a:b]
+        f = np.fft.rfft(np.lib.stride_tricks.sliding_window_view(seg, n)[::h] * window, axis=1)
+        levels[k0:k1] = 10 * np.log10((f.real ** 2 + f.imag ** 2) @ bands + 1e-4)
     s = int(round(doc["step"] / doc["hop"]))
     change = np.zeros_like(levels)
     if len(levels) > 2 * s:
