@@ -133,3 +133,19 @@ def test_short_wav_cut_short_reads_as_praat_reads_it(tmp_path, width):
     assert any(str(cut) in n and "cut short" in n for n in snd.notes)
     praat = parselmouth.Sound(str(cut))
     assert np.array_equal(snd.samples, audio.from_samples(praat.values, praat.sampling_frequency).samples)
+
+
+def test_levels_and_band_changes_read_a_streamed_long_wav_as_in_memory(tmp_path):
+    """The checks of a take (speech-band levels) and the boundary model read a long WAV file a block
+    at a time, by slices: the same figures as from the samples in memory (an index raised TypeError)."""
+    from addon.engine import wavstream
+    from addon.engine.alignment import refine
+    from addon.engine.alignment.speech import frame_levels
+
+    snd = audio.load(write_pcm(tmp_path, 16000, 2, 1, wavstream.LONG + 1))
+    assert isinstance(snd.samples, wavstream.WavSamples)
+    whole = audio.Audio(np.asarray(snd.samples), snd.rate)
+    for emphasis in (False, True):
+        assert np.array_equal(frame_levels(snd, emphasis=emphasis), frame_levels(whole, emphasis=emphasis))
+    doc = refine.model()
+    assert np.array_equal(refine.band_changes(snd, doc), refine.band_changes(whole, doc))

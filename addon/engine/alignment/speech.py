@@ -37,7 +37,8 @@ def frame_levels(audio: Audio, hop: float = FRAME, emphasis: bool = False) -> np
         k1 = min(n, k0 + _BLOCK_FRAMES)
         x = samples[k0 * step:(k1 - 1) * step + win].astype(np.float64)
         if emphasis:
-            x = np.diff(x, prepend=samples[k0 * step - 1] if k0 else x[0])
+            # The sample before the block (read as a slice: a long WAV file's samples are streamed).
+            x = np.diff(x, prepend=np.asarray(samples[k0 * step - 1:k0 * step], np.float64) if k0 else x[:1])
         # Window sums from a running sum: each window's energy in O(1).
         run = np.concatenate([[0.0], np.cumsum(x * x)])
         starts = np.arange(k1 - k0) * step
