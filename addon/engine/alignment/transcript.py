@@ -22,6 +22,7 @@ from ..language import (Lexicon, Pronunciation, assimilation, describe_skipped, 
 from .core import align, check_transcript_matches
 from .edges import CUT_ROUNDS, edges, heard_in, left_out, said_at_the_end
 from .model import AlignSettings, Alignment, Variants
+from .held import said_otherwise
 from .refine import refine_alignment
 from . import tempo
 from .room import lay_out, room
@@ -80,6 +81,10 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
         return second
 
     al = run(snd, progress)
+    # A vowel held for seconds and said otherwise than the dictionary says (:mod:`.held`).
+    al, wider = said_otherwise(snd, al, phones, lambda stand_in: run(snd, stand_in=stand_in))
+    for k, ph in wider.items():
+        phones[k] = ph
     if check_take:
         verify(snd, al, settings, english=english, directions=directions)
         clip = snd

@@ -62,6 +62,21 @@ def rules(path: Path = DATA) -> tuple[Rule, ...]:
     return tuple(out)
 
 
+@lru_cache(maxsize=4)
+def held_alike(path: Path = DATA) -> dict[str, tuple[str, ...]]:
+    """{vowel: the other vowels of its group} of ``path``'s ``held`` groups:
+    vowels said alike when drawn out (:mod:`..alignment.held`)."""
+    doc = read_object(path)
+    out: dict[str, tuple[str, ...]] = {}
+    groups = doc.get("held", {}).get("alike", [])
+    for k, group in enumerate(groups if isinstance(groups, list) else [None]):
+        if not isinstance(group, list) or len(group) < 2 or not all(isinstance(p, str) for p in group):
+            raise PresetError(str(path), f"held.alike[{k}]", "needs a list of two or more phones")
+        for p in group:
+            out[p] = tuple(dict.fromkeys(out.get(p, ()) + tuple(q for q in group if q != p)))
+    return out
+
+
 def variants(words: list[list[str]], language: str, shown: list[list[str]] | None = None
              ) -> list[list[tuple[list[str], list[str]]]]:
     """Every word's other pronunciations in running speech: for each of

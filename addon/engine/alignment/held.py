@@ -1,0 +1,127 @@
+"""Vowels held for seconds and said otherwise than the dictionary says.
+
+A drawn-out vowel ("Mooontreal", three seconds of it) is aligned by its
+sound, and over seconds a small difference of quality outweighs the rest of
+the line: where the speaker's vowel is not the dictionary's (the open vowels
+of "lot", "strut" and "thought" differ from accent to accent), the aligner
+gives the held sound to another vowel of the word that fits it better,
+squeezes the phones before it and leaves the word's own later sounds
+uncovered, as silence.  The mouth then rests through speech.
+
+When the first alignment of a line holds a vowel :data:`HELD` s long (and
+:data:`LONGER_THAN` times the line's median phone) in a word next to which
+it leaves at least :data:`UNCOVERED` s of speech off its words (a
+hesitation's drawn-out "uh" aside), :func:`said_otherwise` aligns
+the line again with each vowel of the words holding one free to be another
+of its group (``data/assimilation.json``, ``held``), one vowel at a time,
+and keeps that alignment where it lays the words on that much more of the
+speech.  Lines without a held vowel cost nothing more.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..audio import Audio
+from ..language.assimilation import held_alike
+from .boundaries import boundary_class
+from .fillers import is_hesitation
+from .model import FRAME, Alignment, Variants
+from .speech import frame_levels, runs, speech_mask
+
+#: A vowel this long (s) is held ...
+HELD = 0.5
+#: ... when also this many times the line's median phone (a line said slowly all through holds long
+#: vowels of its own).
+LONGER_THAN = 5.0
+#: Speech (s) the first alignment leaves off its words for the line to be aligned again, and how much
+#: more of it the second alignment must lay its words on to be kept.
+UNCOVERED = 0.3
+#: Speech within this much (s) of a word is the word's.
+MARGIN = 0.15
+#: The speech left off lies next to the word holding the vowel: it starts within this much (s) of the
+#: word's end, or ends within it of the word's start (beyond MARGIN).
+NEXT_TO = 0.1
+
+
+def held_words(al: Alignment) -> list[int]:
+    """Transcript indices of the spoken words of ``al`` aligned
+    acoustically that hold a vowel :data:`HELD` s long and :data:`LONGER_THAN`
+    times the line's median phone (hesitations, drawn out by nature, left
+    out)."""
+    phones = [(k, p) for k, p in al.script_phones() if not p.estimated]
+    if not phones:
+        return []
+    longest = max(HELD, LONGER_THAN * float(np.median([p.end - p.start for _, p in phones])))
+    script = al.script
+    return sorted({k for k, p in phones if p.end - p.start >= longest and boundary_class(p.phone) == "vowel"
+                   and script[k].spoken and not script[k].estimated and not is_hesitation(script[k].text)})
+
+
+def uncovered(al: Alignment, mask: np.ndarray) -> np.ndarray:
+    """[start, end) frames of the runs of speech (``mask``, one flag a frame)
+    more than :data:`MARGIN` from every spoken word of ``al``."""
+    covered = np.zeros(len(mask), bool)
+    for w in al.words:
+        if w.spoken:
+            covered[max(0, int((w.start - MARGIN) / FRAME)):int(np.ceil((w.end + MARGIN) / FRAME))] = True
+    return runs(mask & ~covered)
+
+
+def _seconds(spans: np.ndarray) -> float:
+    return float((spans[:, 1] - spans[:, 0]).sum()) * FRAME if len(spans) else 0.0
+
+
+def next_to(al: Alignment, words: list[int], spans: np.ndarray) -> list[int]:
+    """The ``words`` (transcript indices) of ``al`` beside which a run of
+    ``spans`` (frames) :data:`UNCOVERED` s long starts or ends."""
+    near = (MARGIN + NEXT_TO) / FRAME
+    long = [(i, j) for i, j in spans.tolist() if (j - i) * FRAME >= UNCOVERED]
+    script = al.script
+    return [k for k in words
+            if any(abs(i - script[k].end / FRAME) <= near or abs(script[k].start / FRAME - j) <= near for i, j in long)]
+
+
+def widened(phones: Sequence[str], alike: dict[str, tuple[str, ...]]) -> Variants:
+    """``phones`` (with the other pronunciations they have) and, for each of
+    its vowels in a group of ``alike``, the word with that vowel said as each
+    other of its group."""
+    have = [list(v) for v in getattr(phones, "variants", [])]
+    shown = [list(v) for v in getattr(phones, "shown", have)]
+    for i, p in enumerate(phones):
+        for q in alike.get(p, ()):
+            v = list(phones[:i]) + [q] + list(phones[i + 1:])
+            if v not in have and v != list(phones):
+                have.append(v)
+                shown.append(v)
+    return Variants(list(phones), have, shown)
+
+
+def said_otherwise(snd: Audio, al: Alignment, phones: Sequence[Sequence[str]],
+                   realign: Callable[[dict[int, Variants]], Alignment]) -> tuple[Alignment, dict[int, Variants]]:
+    """(the alignment to keep, {transcript index: the phones its word is to be
+    aligned with from now on}) for the first alignment ``al`` of ``phones``
+    to ``snd``; ``realign`` aligns the line with some words' phones in place
+    of theirs.  ``al`` and nothing where no word holds a vowel next to
+    :data:`UNCOVERED` s of speech left off the words, or a second alignment
+    lays its words on no more of the speech."""
+    words = held_words(al)
+    if not words:
+        return al, {}
+    mask, _ = speech_mask(frame_levels(snd), snd)
+    spans = uncovered(al, mask)
+    words = next_to(al, words, spans)
+    if not words:
+        return al, {}
+    before = _seconds(spans)
+    alike = held_alike()
+    wider = {k: widened(phones[k], alike) for k in words}
+    wider = {k: v for k, v in wider.items() if len(v.variants) > len(getattr(phones[k], "variants", []))}
+    if not wider:
+        return al, {}
+    second = realign(wider)
+    if _seconds(uncovered(second, mask)) <= before - UNCOVERED:
+        return second, wider
+    return al, {}
