@@ -133,3 +133,19 @@ def test_speech_left_off_elsewhere_or_a_drawn_out_hesitation_is_not_mended():
     # A hesitation drawn out beside speech left off: "uh" is long by nature.
     uh = aligned([("uh", [("AH", 1.0, 4.5)]), ("so", [("S", 6.2, 6.4), ("OW", 6.4, 6.9)])])
     assert held.held_words(uh) == []
+
+
+def test_a_mended_word_s_held_vowel_is_not_searched_for_speech_around_the_script(monkeypatch):
+    """After the line is aligned with the word's vowel its own, the checks of the take do not ask
+    recognition whether words hide in that vowel (speech before or after the script pulling it)."""
+    from addon.engine.alignment import edges
+    from addon.engine.alignment.model import AlignSettings
+
+    asked = []
+    monkeypatch.setattr(edges, "words_heard", lambda snd, spans, settings: asked.append(spans) or [False] * len(spans))
+    al = laid_on_the_speech()
+    snd = voiced(1.0, 6.9)
+    assert edges.edges(snd, al, [MONTREAL, ["F", "AO", "R", "S", "T"]], AlignSettings(), held={0}) is None
+    assert asked == []
+    assert edges.edges(snd, al, [MONTREAL, ["F", "AO", "R", "S", "T"]], AlignSettings()) is None
+    assert len(asked) == 1 and (1.1, 4.5) in asked[0]        # without it, recognition is asked

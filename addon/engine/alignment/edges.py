@@ -21,7 +21,7 @@ around it, and the caller aligns the transcript with it silenced.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 
@@ -90,19 +90,21 @@ def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],
     return start, end
 
 
-def _stretched(al: Alignment) -> list[tuple[int, AlignedPhone]]:
+def _stretched(al: Alignment, held: Collection[int] = ()) -> list[tuple[int, AlignedPhone]]:
     """(index in ``al.script``, phone) for the phones :data:`STRETCHED` s long or more, and
     :data:`SLOWER_THAN` times the line's median phone, in the transcript's words (hesitations,
-    often drawn out, left out): a line said slowly all through holds long phones of its own."""
+    often drawn out, left out; and the words ``held``, whose held vowel was found to be their own,
+    :mod:`.held`): a line said slowly all through holds long phones of its own."""
     script = al.script
     phones = al.script_phones()
     if not phones:
         return []
     longest = max(STRETCHED, SLOWER_THAN * float(np.median([p.end - p.start for _, p in phones])))
-    return [(k, p) for k, p in phones if p.end - p.start >= longest and not is_hesitation(script[k].text)]
+    return [(k, p) for k, p in phones
+            if p.end - p.start >= longest and not is_hesitation(script[k].text) and k not in held]
 
 
-def _pulled(snd: Audio, al: Alignment, settings: AlignSettings) -> bool:
+def _pulled(snd: Audio, al: Alignment, settings: AlignSettings, held: Collection[int] = ()) -> bool:
     """Whether the first alignment shows the script pulled at an edge: the
     check of the take found unscripted speech, or a word at either edge holds
     a phone :data:`STRETCHED` s long in which words are heard (a vowel held
@@ -111,17 +113,19 @@ def _pulled(snd: Audio, al: Alignment, settings: AlignSettings) -> bool:
         return True
     script = [k for k, w in enumerate(al.script) if w.spoken and not is_hesitation(w.text)]
     edge = set(script[:EDGE_WORDS] + script[-EDGE_WORDS:])
-    long = [(p.start, p.end) for k, p in _stretched(al) if k in edge]
+    long = [(p.start, p.end) for k, p in _stretched(al, held) if k in edge]
     return any(words_heard(snd, long, settings)) if long else False
 
 
 def edges(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
-          settings: AlignSettings) -> tuple[float, float] | None:
+          settings: AlignSettings, held: Collection[int] = ()) -> tuple[float, float] | None:
     """(start, end) s of the stretch of ``snd`` the transcript is to be
     aligned to, when speech before or after it pulled its first or last
-    words in the first alignment ``al``; None to keep ``al``."""
+    words in the first alignment ``al``; None to keep ``al``.  The long
+    phones of the words ``held`` (a held vowel found to be the word's own,
+    :mod:`.held`) are not taken for a pull."""
     script = [w for w in al.script if w.spoken]
-    if not script or not _pulled(snd, al, settings):
+    if not script or not _pulled(snd, al, settings, held):
         return None
     start, end = script_bounds(snd, prons, settings)
     if start is not None and start < script[0].start + SHIFT:
@@ -154,8 +158,8 @@ def said_at_the_end(first: Alignment, again: Alignment, end: float) -> bool:
     return sum(same for _, _, same in edit_path(moved, heard)) >= HEARD * len(moved)
 
 
-def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
-             settings: AlignSettings, known: Sequence[tuple[float, float]] = ()) -> list[tuple[float, float]]:
+def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]], settings: AlignSettings,
+             known: Sequence[tuple[float, float]] = (), held: Collection[int] = ()) -> list[tuple[float, float]]:
     """(start, end) s of the speech the transcript leaves out between its
     words (a cut line, an ad-lib), when the check of the take (:mod:`.verify`)
     found unscripted speech there in the alignment ``al``, or a word there
@@ -171,7 +175,8 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
     alone.  The loops of :data:`MIN_LOOP` s or more in which words are heard
     are returned, for the caller to align the transcript with them silenced
     and check the take again; unscripted speech on the stretches ``known``
-    (found before, and silenced in ``snd``) is not looked around again."""
+    (found before, and silenced in ``snd``) is not looked around again, nor
+    the long phones of the words ``held`` (:func:`edges`)."""
     script = al.script
     n = len(prons)
     if len(script) != n or n < 2 or snd.duration > MAX_CLIP:
@@ -186,7 +191,7 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]],
             centres.append(said[before - 1] + 1)
     # A word pulled over it all (no speech left uncovered): one long phone, where words are heard
     # (not a held vowel).
-    long = [(k, p) for k, p in _stretched(al) if 0 < k < n - 1]
+    long = [(k, p) for k, p in _stretched(al, held) if 0 < k < n - 1]
     for (k, p), heard in zip(long, words_heard(snd, [(p.start, p.end) for _, p in long], settings)):
         if heard:
             centres.append(k + 1 if p.end > (script[k].start + script[k].end) / 2 else k)

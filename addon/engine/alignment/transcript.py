@@ -88,7 +88,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     if check_take:
         verify(snd, al, settings, english=english, directions=directions)
         clip = snd
-        bounds = edges(snd, al, phones, settings)
+        bounds = edges(snd, al, phones, settings, held=wider)
         if bounds is not None:
             # Speech before or after the script (:mod:`.edges`): the transcript is aligned to the
             # stretch between its edges, unless its last words were said at the clip's end after all.
@@ -101,7 +101,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
             # Speech left out between the script's words (:func:`.edges.left_out`): the transcript is
             # aligned with it silenced too, so the words around it keep to their own speech.  Then once
             # more with that speech silenced, for a second cut the first search's one loop left.
-            more = left_out(clip if cut else snd, al, phones, settings, known=cut)
+            more = left_out(clip if cut else snd, al, phones, settings, known=cut, held=wider)
             if not more:
                 break
             quiet = clip.silenced(more)
