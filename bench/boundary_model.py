@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import copy
 import json
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -40,8 +41,10 @@ from addon.engine.alignment import align_audio, refine, transcript
 PBM = {"P", "B", "M"}
 
 
-def aligned(doc: dict) -> list[dict]:
-    """Every sentence aligned with the model's step recorded, not applied."""
+@contextmanager
+def recorded():
+    """The aligner's last step (the boundary model) recorded instead of applied, within the block:
+    yields the list its calls are appended to, as (audio, phones per word, words it leaves)."""
     calls: list = []
     saved = transcript.refine_alignment
 
@@ -50,8 +53,16 @@ def aligned(doc: dict) -> list[dict]:
         calls.append((audio, result, left))
 
     transcript.refine_alignment = record
-    lines = []
     try:
+        yield calls
+    finally:
+        transcript.refine_alignment = saved
+
+
+def aligned(doc: dict) -> list[dict]:
+    """Every sentence aligned with the model's step recorded, not applied."""
+    lines = []
+    with recorded() as calls:
         for name, wav, text, ref in sentences(need_data() / "timit_nltk", DEV + HELD, None):
             calls.clear()
             al = align_audio(audio_mod.load(wav), text)
@@ -62,8 +73,6 @@ def aligned(doc: dict) -> list[dict]:
                               phones=flat, pairs=pairs, ref=[ref[j].start for _, j in pairs],
                               pbm=[al.phones[i].phone in PBM for i, _ in pairs],
                               X=refine.features(audio, flat, doc)))
-    finally:
-        transcript.refine_alignment = saved
     return lines
 
 

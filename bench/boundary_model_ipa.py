@@ -28,13 +28,13 @@ import copy
 import numpy as np
 
 from common import need_data
-from boundary_model import aligned as timit_aligned
+from boundary_model import aligned as timit_aligned, recorded
 from crossval_languages import FAMILY
 from languages import read_tiers, reference
 
 from addon.engine import LineSettings, analyze
 from addon.engine import audio as audio_mod
-from addon.engine.alignment import refine, transcript
+from addon.engine.alignment import refine
 from addon.engine.alignment.verify import edit_path
 from addon.engine.errors import LipSyncError
 
@@ -43,18 +43,9 @@ def words(limit: int) -> list[dict]:
     """Every usable VoxAngeles word aligned with the model's step recorded, not applied."""
     root = need_data() / "voxangeles"
     doc = refine.model()
-    calls: list = []
-    saved = transcript.refine_alignment
-
-    def record(audio, al, doc=None):
-        result, _, left = refine.by_word(al)
-        calls.append((audio, result, left))
-
-    transcript.refine_alignment = record
     out = []
-    try:
-        folders = sorted((root / "audited").iterdir())
-        for folder in folders:
+    with recorded() as calls:
+        for folder in sorted((root / "audited").iterdir()):
             grids = sorted(folder.glob("*.TextGrid"))
             for grid in grids[:limit] if limit else grids:
                 ref = reference(read_tiers(grid))
@@ -66,23 +57,18 @@ def words(limit: int) -> list[dict]:
                 calls.clear()
                 line = dict(language=folder.name, family=FAMILY.get(folder.name, folder.name),
                             refs=[a for _, a, _, _ in phones], pairs=[])
+                out.append(line)
                 try:
                     al = analyze(snd, f"/{word}/", LineSettings.of(fps=100)).alignment
                 except LipSyncError:
-                    out.append(line)
                     continue
                 audio, result, left = calls[-1]
                 flat = [p for ph in result if ph for p in ph]
                 shown = [p.phone for p in al.phones]
-                if len(shown) != len(flat):
-                    out.append(line)
-                    continue
-                line.update(audio=audio, result=result, left=left, flat=flat,
-                            pairs=[(j, i) for i, j, _ in edit_path([p for p, *_ in phones], shown)],
-                            X=refine.features(audio, flat, doc))
-                out.append(line)
-    finally:
-        transcript.refine_alignment = saved
+                if len(shown) == len(flat):
+                    line.update(audio=audio, result=result, left=left, flat=flat,
+                                pairs=[(j, i) for i, j, _ in edit_path([p for p, *_ in phones], shown)],
+                                X=refine.features(audio, flat, doc))
     langs = sorted({ln["language"] for ln in out})
     for ln in out:
         ln["half"] = "AB"[langs.index(ln["language"]) % 2]
