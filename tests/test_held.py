@@ -149,3 +149,14 @@ def test_a_mended_word_s_held_vowel_is_not_searched_for_speech_around_the_script
     assert asked == []
     assert edges.edges(snd, al, [MONTREAL, ["F", "AO", "R", "S", "T"]], AlignSettings()) is None
     assert len(asked) == 1 and (1.1, 4.5) in asked[0]        # without it, recognition is asked
+
+
+def test_only_words_aligned_with_their_own_phones_are_said_otherwise():
+    """A word aligned with stand-ins for another language's sounds keeps them."""
+    def realign(stand_in):
+        raise AssertionError("aligned again")
+
+    snd = voiced(1.0, 6.9)
+    first = squeezed_then_held()
+    got = held.said_otherwise(snd, first, [MONTREAL, ["F", "AO", "R", "S", "T"]], realign, own={1})
+    assert got == (first, {})

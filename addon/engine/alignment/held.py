@@ -20,7 +20,7 @@ speech.  Lines without a held vowel cost nothing more.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 
 import numpy as np
 
@@ -100,14 +100,17 @@ def widened(phones: Sequence[str], alike: dict[str, tuple[str, ...]]) -> Variant
 
 
 def said_otherwise(snd: Audio, al: Alignment, phones: Sequence[Sequence[str]],
-                   realign: Callable[[dict[int, Variants]], Alignment]) -> tuple[Alignment, dict[int, Variants]]:
+                   realign: Callable[[dict[int, Variants]], Alignment],
+                   own: Collection[int] | None = None) -> tuple[Alignment, dict[int, Variants]]:
     """(the alignment to keep, {transcript index: the phones its word is to be
     aligned with from now on}) for the first alignment ``al`` of ``phones``
     to ``snd``; ``realign`` aligns the line with some words' phones in place
     of theirs.  ``al`` and nothing where no word holds a vowel next to
     :data:`UNCOVERED` s of speech left off the words, or a second alignment
-    lays its words on no more of the speech."""
-    words = held_words(al)
+    lays its words on no more of the speech.  Only the words ``own`` (None:
+    all) may be said otherwise: those aligned with the phones they show, not
+    with stand-ins for another language's sounds."""
+    words = [k for k in held_words(al) if own is None or k in own]
     if not words:
         return al, {}
     mask, _ = speech_mask(frame_levels(snd), snd)

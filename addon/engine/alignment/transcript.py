@@ -82,7 +82,8 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
 
     al = run(snd, progress)
     # A vowel held for seconds and said otherwise than the dictionary says (:mod:`.held`).
-    al, wider = said_otherwise(snd, al, phones, lambda stand_in: run(snd, stand_in=stand_in))
+    al, wider = said_otherwise(snd, al, phones, lambda stand_in: run(snd, stand_in=stand_in),
+                               own={k for k, p in enumerate(prons) if not p.aligned})
     for k, ph in wider.items():
         phones[k] = ph
     if check_take:
