@@ -160,3 +160,14 @@ def test_only_words_aligned_with_their_own_phones_are_said_otherwise():
     first = squeezed_then_held()
     got = held.said_otherwise(snd, first, [MONTREAL, ["F", "AO", "R", "S", "T"]], realign, own={1})
     assert got == (first, {})
+
+
+def test_a_long_take_is_not_aligned_again_whole_for_one_word():
+    def realign(stand_in):
+        raise AssertionError("aligned again")
+
+    first = squeezed_then_held()
+    long = Audio(np.concatenate([voiced(1.0, 6.9).samples, np.zeros(int((held.LONGEST - 7.0) * RATE), np.float32)]),
+                 RATE)
+    assert long.duration > held.LONGEST
+    assert held.said_otherwise(long, first, [MONTREAL, ["F", "AO", "R", "S", "T"]], realign) == (first, {})

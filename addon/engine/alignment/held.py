@@ -15,7 +15,8 @@ hesitation's drawn-out "uh" aside), :func:`said_otherwise` aligns
 the line again with each vowel of the words holding one free to be another
 of its group (``data/assimilation.json``, ``held``), one vowel at a time,
 and keeps that alignment where it lays the words on that much more of the
-speech.  Lines without a held vowel cost nothing more.
+speech.  Lines without a held vowel cost nothing more, and takes longer
+than :data:`LONGEST` are left as they are.
 """
 
 from __future__ import annotations
@@ -44,6 +45,10 @@ MARGIN = 0.15
 #: The speech left off lies next to the word holding the vowel: it starts within this much (s) of the
 #: word's end, or ends within it of the word's start (beyond MARGIN).
 NEXT_TO = 0.1
+#: Clips longer than this (s) are not aligned again: a long take is aligned window by window
+#: (:attr:`.model.AlignSettings.stream_above`), and aligning all of it twice for one word would
+#: double its time.
+LONGEST = 90.0
 
 
 def held_words(al: Alignment) -> list[int]:
@@ -110,7 +115,7 @@ def said_otherwise(snd: Audio, al: Alignment, phones: Sequence[Sequence[str]],
     lays its words on no more of the speech.  Only the words ``own`` (None:
     all) may be said otherwise: those aligned with the phones they show, not
     with stand-ins for another language's sounds."""
-    words = [k for k in held_words(al) if own is None or k in own]
+    words = [k for k in held_words(al) if own is None or k in own] if snd.duration <= LONGEST else []
     if not words:
         return al, {}
     mask, _ = speech_mask(frame_levels(snd), snd)
