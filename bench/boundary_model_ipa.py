@@ -15,9 +15,12 @@ English one:
 each fitted on the languages of every family but one and scored on that family's (pooled over
 the families of ``crossval_languages.FAMILY``), on one half of the languages and scored on the
 other (``bench/languages.py``'s halves A and B), and in-sample.  Figures: reference phone starts
-within 20 ms and 40 ms.
+within 20 ms and 40 ms.  With ``--emodb``, the IPA model fitted on all the words is also tried on
+EmoDB's acted German (``bench/emodb.py``'s takes and figures), which neither model saw, beside the
+English one.
 
     .venv/bin/python bench/boundary_model_ipa.py     # about 6 minutes (2 cores)
+    .venv/bin/python bench/boundary_model_ipa.py --emodb
 """
 
 from __future__ import annotations
@@ -121,6 +124,7 @@ def figures(err: np.ndarray) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--limit", type=int, default=0, help="at most N words per language")
+    ap.add_argument("--emodb", action="store_true", help="also try the IPA model fitted on all the words on EmoDB")
     args = ap.parse_args()
     lines = words(args.limit)
     english = refine.model()
@@ -149,6 +153,33 @@ def main() -> None:
                 cols[f"ipa{a}"].append(errors(te, fit(X, y, a)))
                 cols[f"both{a}"].append(errors(te, fit(np.concatenate([X, tX]), np.concatenate([y, ty]), a)))
         print(f"{name:14s} " + "   ".join(figures(np.concatenate(v)).rjust(16) for v in cols.values()), flush=True)
+    if args.emodb:
+        X, y = design([ln for ln in lines if ln["pairs"]])
+        on_emodb(dict(english, weights=fit(X, y, 150.0)))
+
+
+def on_emodb(ipa: dict) -> None:
+    """EmoDB's takes analysed with the English model and with ``ipa`` (the model in its place):
+    boundaries within 20 and 40 ms, lips closed during labelled /p b m/ (``bench/emodb.py``'s figures)."""
+    import emodb
+
+    takes = sorted((need_data() / "emodb").glob("*.wav"))
+    settings = LineSettings.of(language="de")
+    shipped = refine.model
+    for label, doc in (("English model", None), ("IPA model", ipa)):
+        errors, closed = [], []
+        refine.model = shipped if doc is None else (lambda path=None, doc=doc: doc)
+        try:
+            for wav in takes:
+                r = analyze(audio_mod.load(wav), wav.with_suffix(".txt").read_text(encoding="utf-8").strip(), settings)
+                e, lab = emodb.score(r, emodb.segments(emodb.labels(wav.with_suffix(".lablaut"))))
+                errors += e
+                closed += [c for _, _, c in lab]
+        finally:
+            refine.model = shipped
+        err = np.array(errors)
+        print(f"EmoDB ({len(takes)} takes), {label}: within 20 ms {np.mean(err <= 0.02):.3f}, within 40 ms "
+              f"{np.mean(err <= 0.04):.3f}, lips closed during {np.mean(closed):.3f} of labelled /p b m/", flush=True)
 
 
 if __name__ == "__main__":
