@@ -90,7 +90,7 @@ def script_bounds(audio: Audio, prons: Sequence[Sequence[str]],
     return start, end
 
 
-def _stretched(al: Alignment, held: Collection[int] = ()) -> list[tuple[int, AlignedPhone]]:
+def stretched(al: Alignment, held: Collection[int] = ()) -> list[tuple[int, AlignedPhone]]:
     """(index in ``al.script``, phone) for the phones :data:`STRETCHED` s long or more, and
     :data:`SLOWER_THAN` times the line's median phone, in the transcript's words (hesitations,
     often drawn out, left out; and the words ``held``, whose held vowel was found to be their own,
@@ -113,7 +113,7 @@ def _pulled(snd: Audio, al: Alignment, settings: AlignSettings, held: Collection
         return True
     script = [k for k, w in enumerate(al.script) if w.spoken and not is_hesitation(w.text)]
     edge = set(script[:EDGE_WORDS] + script[-EDGE_WORDS:])
-    long = [(p.start, p.end) for k, p in _stretched(al, held) if k in edge]
+    long = [(p.start, p.end) for k, p in stretched(al, held) if k in edge]
     return any(words_heard(snd, long, settings)) if long else False
 
 
@@ -191,7 +191,7 @@ def left_out(snd: Audio, al: Alignment, prons: Sequence[Sequence[str]], settings
             centres.append(said[before - 1] + 1)
     # A word pulled over it all (no speech left uncovered): one long phone, where words are heard
     # (not a held vowel).
-    long = [(k, p) for k, p in _stretched(al, held) if 0 < k < n - 1]
+    long = [(k, p) for k, p in stretched(al, held) if 0 < k < n - 1]
     for (k, p), heard in zip(long, words_heard(snd, [(p.start, p.end) for _, p in long], settings)):
         if heard:
             centres.append(k + 1 if p.end > (script[k].start + script[k].end) / 2 else k)

@@ -8,8 +8,8 @@ gives the held sound to another vowel of the word that fits it better,
 squeezes the phones before it and leaves the word's own later sounds
 uncovered, as silence.  The mouth then rests through speech.
 
-When the first alignment of a line holds a vowel :data:`HELD` s long (and
-:data:`LONGER_THAN` times the line's median phone) in a word next to which
+When the first alignment of a line holds a vowel half a second long (and
+five times the line's median phone: :func:`.edges.stretched`) in a word next to which
 it leaves at least :data:`UNCOVERED` s of speech off its words (a
 hesitation's drawn-out "uh" aside), :func:`said_otherwise` aligns
 the line again with each vowel of the words holding one free to be another
@@ -28,20 +28,16 @@ import numpy as np
 from ..audio import Audio
 from ..language.assimilation import held_alike
 from .boundaries import boundary_class
-from .fillers import is_hesitation
+from .edges import stretched
 from .model import FRAME, Alignment, Variants
 from .speech import frame_levels, runs, speech_mask
+from .verify import WORD_MARGIN, covered_by
 
-#: A vowel this long (s) is held ...
-HELD = 0.5
-#: ... when also this many times the line's median phone (a line said slowly all through holds long
-#: vowels of its own).
-LONGER_THAN = 5.0
 #: Speech (s) the first alignment leaves off its words for the line to be aligned again, and how much
 #: more of it the second alignment must lay its words on to be kept.
 UNCOVERED = 0.3
-#: Speech within this much (s) of a word is the word's.
-MARGIN = 0.15
+#: Speech within this much (s) of a word is the word's (as for the check of the take).
+MARGIN = WORD_MARGIN
 #: The speech left off lies next to the word holding the vowel: it starts within this much (s) of the
 #: word's end, or ends within it of the word's start (beyond MARGIN).
 NEXT_TO = 0.1
@@ -53,26 +49,18 @@ LONGEST = 90.0
 
 def held_words(al: Alignment) -> list[int]:
     """Transcript indices of the spoken words of ``al`` aligned
-    acoustically that hold a vowel :data:`HELD` s long and :data:`LONGER_THAN`
-    times the line's median phone (hesitations, drawn out by nature, left
-    out)."""
-    phones = [(k, p) for k, p in al.script_phones() if not p.estimated]
-    if not phones:
-        return []
-    longest = max(HELD, LONGER_THAN * float(np.median([p.end - p.start for _, p in phones])))
+    acoustically that hold a vowel as long as :func:`.edges.stretched` finds
+    (:data:`.edges.STRETCHED` s and :data:`.edges.SLOWER_THAN` times the
+    line's median phone; hesitations, drawn out by nature, left out)."""
     script = al.script
-    return sorted({k for k, p in phones if p.end - p.start >= longest and boundary_class(p.phone) == "vowel"
-                   and script[k].spoken and not script[k].estimated and not is_hesitation(script[k].text)})
+    return sorted({k for k, p in stretched(al) if boundary_class(p.phone) == "vowel" and not p.estimated
+                   and script[k].spoken and not script[k].estimated})
 
 
 def uncovered(al: Alignment, mask: np.ndarray) -> np.ndarray:
     """[start, end) frames of the runs of speech (``mask``, one flag a frame)
     more than :data:`MARGIN` from every spoken word of ``al``."""
-    covered = np.zeros(len(mask), bool)
-    for w in al.words:
-        if w.spoken:
-            covered[max(0, int((w.start - MARGIN) / FRAME)):int(np.ceil((w.end + MARGIN) / FRAME))] = True
-    return runs(mask & ~covered)
+    return runs(mask & ~covered_by(al.words, len(mask), MARGIN))
 
 
 def _seconds(spans: np.ndarray) -> float:

@@ -236,6 +236,16 @@ def voice_level(levels: np.ndarray, al: Alignment) -> float:
     return float(np.percentile(levels[on] if on.any() else levels, 90))
 
 
+def covered_by(words: Sequence[AlignedWord], frames: int, margin: float = WORD_MARGIN) -> np.ndarray:
+    """One flag per :data:`.model.FRAME` (``frames`` of them): whether it lies
+    within ``margin`` s of a spoken word of ``words``."""
+    covered = np.zeros(frames, bool)
+    for w in words:
+        if w.spoken:
+            covered[max(0, int((w.start - margin) / FRAME)):int(np.ceil((w.end + margin) / FRAME))] = True
+    return covered
+
+
 def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings,
                 left_out: Sequence[tuple[float, float]] = (), directions: Collection[int] = ()
                 ) -> list[tuple[float, float]]:
@@ -252,11 +262,7 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
     are the sound it stands for.  The stretches ``left_out`` (speech known to
     be cut from the transcript) are uncovered up to the words beside them,
     without :data:`WORD_MARGIN`."""
-    covered = np.zeros(len(mask), bool)
-    for w in al.words:
-        if w.spoken:
-            a = max(0, int((w.start - WORD_MARGIN) / FRAME))
-            covered[a:int(np.ceil((w.end + WORD_MARGIN) / FRAME))] = True
+    covered = covered_by(al.words, len(mask))
     for start, end in left_out:
         covered[int(round(start / FRAME)):int(round(end / FRAME))] = False
     joined: list[list[int]] = []
