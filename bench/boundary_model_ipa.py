@@ -33,7 +33,7 @@ import numpy as np
 from common import need_data
 from boundary_model import aligned as timit_aligned, recorded
 from crossval_languages import FAMILY
-from languages import read_tiers, reference
+from languages import usable_words
 
 from addon.engine import LineSettings, analyze
 from addon.engine import audio as audio_mod
@@ -49,14 +49,8 @@ def words(limit: int) -> list[dict]:
     out = []
     with recorded() as calls:
         for folder in sorted((root / "audited").iterdir()):
-            grids = sorted(folder.glob("*.TextGrid"))
-            for grid in grids[:limit] if limit else grids:
-                ref = reference(read_tiers(grid))
-                wav = grid.with_suffix(".wav")
-                if ref is None or not wav.is_file():
-                    continue
-                word, phones = ref
-                snd = audio_mod.load(wav)
+            for grid, word, phones in usable_words(folder, limit):
+                snd = audio_mod.load(grid.with_suffix(".wav"))
                 calls.clear()
                 line = dict(language=folder.name, family=FAMILY.get(folder.name, folder.name),
                             refs=[a for _, a, _, _ in phones], pairs=[])

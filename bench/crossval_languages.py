@@ -61,7 +61,7 @@ import numpy as np
 from common import need_data
 from crossval import (Batch, Line, Procedure, bootstrap_se, check, fold_masks, recording, line_from,
                       pair_counts, prepare, rows, scored, shipped_tables, tables, tune)
-from languages import base_phone, closes_lips, match_starts, read_tiers, reference
+from languages import base_phone, closes_lips, match_starts, read_tiers, usable_words
 
 from addon.engine import LineSettings, analyze
 from addon.engine import audio as audio_mod
@@ -100,14 +100,8 @@ def load(root, limit: int) -> tuple[list[Line], list]:
     folders = sorted((root / "audited").iterdir())
     with recording() as calls:
         for k, folder in enumerate(folders):
-            grids = sorted(folder.glob("*.TextGrid"))
-            for grid in grids[:limit] if limit else grids:
-                ref = reference(read_tiers(grid))
-                wav = grid.with_suffix(".wav")
-                if ref is None or not wav.is_file():
-                    continue
-                word, phones = ref
-                snd = audio_mod.load(wav)
+            for grid, word, phones in usable_words(folder, limit):
+                snd = audio_mod.load(grid.with_suffix(".wav"))
                 groups = {"language": folder.name, "family": FAMILY.get(folder.name, folder.name)}
                 calls.clear()
                 try:

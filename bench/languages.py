@@ -87,6 +87,16 @@ def reference(tiers) -> tuple[str, list[tuple[str, float, float, str]]] | None:
     return (words[0] if words else "".join(t for *_, t in phones)), phones
 
 
+def usable_words(folder: Path, limit: int = 0):
+    """(TextGrid, word, reference phones) of every word of one language's folder this bench scores
+    (a single word with IPA phones and its .wav beside it); at most ``limit`` TextGrids read (0: all)."""
+    grids = sorted(folder.glob("*.TextGrid"))
+    for grid in grids[:limit] if limit else grids:
+        ref = reference(read_tiers(grid))
+        if ref is not None and grid.with_suffix(".wav").is_file():
+            yield grid, ref[0], ref[1]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--limit", type=int, default=0, help="at most N words per language")
