@@ -93,6 +93,27 @@ def test_a_stretch_is_heard_alike_whatever_was_recognised_before():
     for before in (1.0, 1.01, 3.3):     # stretches a frame apart in length left different states
         heard(2.4, 2.4 + before)
         assert heard(0.0, 2.4) == first, before
+    recognize_spans(snd, [(0.0, snd.duration)], check=True)    # the checks' recogniser is another decoder
+    assert heard(0.0, 2.4) == first
+
+
+def test_the_checks_recognise_with_their_own_search(monkeypatch):
+    """A line without a transcript is recognised scoring every frame; the checks of a take against
+    its script recognise what the words leave out with the search their thresholds were set on."""
+    from addon.engine.alignment import recognize, verify
+
+    assert recognize.DECODER_OPTIONS["ds"] == 1 and recognize.CHECK_OPTIONS["ds"] == 2
+    seen = []
+    real = verify.recognize_spans
+
+    def spy(*args, **kw):
+        seen.append(kw.get("check"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(verify, "recognize_spans", spy)
+    r = analyze(FIXTURES / "bob_map.wav", "Bob")    # "bought a map" left out: recognised by the checks
+    assert r.alignment.unscripted
+    assert seen and all(c is True for c in seen)
 
 
 def test_the_first_line_a_process_recognises_is_heard_as_later_ones():

@@ -4,9 +4,9 @@ With no transcript, what was said is recognised with pocketsphinx's bundled
 US English acoustic model, language model and dictionary.  The audio is cut
 at its pauses into chunks of at most :attr:`AlignSettings.max_chunk` seconds
 (:func:`.chunks.plan_chunks`), so memory stays bounded whatever the length;
-each chunk is decoded with the language model (a fast search: every second
-frame scored), then its phones are aligned to the words found, frame by
-frame, in a second pass.  The chunks are shared between two processes when
+each chunk is decoded with the language model (a search pruned hard: see
+:data:`DECODER_OPTIONS`), then its phones are aligned to the words found,
+frame by frame, in a second pass.  The chunks are shared between two processes when
 there are several.
 
 Recognition makes mistakes a transcript would not (a similar-sounding word,
@@ -29,34 +29,46 @@ from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
 from .speech import speech_or_refuse
 
-#: The recogniser's search.  Scoring every second frame (``ds``) and pruning
-#: harder than pocketsphinx's defaults makes it about four times faster; the
-#: second (alignment) pass places the phones on every frame again.  Without
-#: the phone lookahead (``pl_window``), which with ``ds`` carries state from
-#: one utterance to the next, less is carried over (see :data:`_RESET`).
+#: The recogniser's search.  Every frame is scored (``ds`` 1): scoring every
+#: second one made the search about a tenth faster in all (the second,
+#: alignment pass scores every frame anyway) but heard worse
+#: (bench/no_transcript.py: lips closed at 0.40 of /p b m/ on the natural
+#: monologues against 0.52, 0.64 against 0.68 on the voice-quality clips and
+#: sonnets, 0.89 against 0.91 on TIMIT; pauses at rest 0.83 and 0.71 against
+#: 0.92 and 0.87).  It prunes harder than pocketsphinx's defaults
+#: (``maxhmmpf``, ``maxwpf``) and has no phone lookahead (``pl_window``),
+#: which carries state from one utterance to the next (see :data:`_RESET`).
 #: The language model weighs less than pocketsphinx's default (``lw`` 4
 #: against 6.5): the words heard follow the sounds more closely, which is what
 #: the mouth shows (on the spontaneous speech of bench/offscript.py the lips
 #: close at 9 of 25 /p b m/ where they closed at 4, and the event score goes
 #: from 0.88 to 0.95; read TIMIT sentences stay at 0.98); the search this
 #: widens is held by ``maxhmmpf`` and ``maxwpf``, so it costs no more time.
-DECODER_OPTIONS = dict(ds=2, fwdflat=False, bestpath=False, lw=4.0, maxhmmpf=500, maxwpf=3,
+DECODER_OPTIONS = dict(ds=1, fwdflat=False, bestpath=False, lw=4.0, maxhmmpf=500, maxwpf=3,
                        beam=1e-40, wbeam=1e-30, pbeam=1e-40, cmn="batch", pl_window=0)
 
+#: The search of the checks of a take against its script (:mod:`.verify`),
+#: which recognise the speech a transcript's words leave out: every second
+#: frame scored.  Their thresholds (how many words make speech heard,
+#: :data:`.verify.MIN_HEARD_WORDS`) were set on what this search hears, and
+#: it hears more words in unscripted speech (bench/offscript.py), so it stays.
+CHECK_OPTIONS = dict(DECODER_OPTIONS, ds=2)
+
 _VARIANT = re.compile(r"\(\d+\)$")
-_loaded: list = []   # [decoder, its language-model search], once loaded
+_loaded: dict = {}   # {check: [decoder, its language-model search]}, each once loaded
 
 
-def _decoder():
-    """The recogniser, loaded once (the language model takes a while); the
-    worker processes are forked with it loaded and use their own copy."""
+def _decoder(check: bool = False):
+    """The recogniser (with ``check``, the checks' one: :data:`CHECK_OPTIONS`),
+    loaded once (the language model takes a while); the worker processes are
+    forked with it loaded and use their own copy."""
     import pocketsphinx
 
-    if not _loaded:
-        decoder = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **DECODER_OPTIONS)
-        search = decoder.current_search()
-        _loaded[:] = [decoder, search]
-    return _loaded
+    if check not in _loaded:
+        options = CHECK_OPTIONS if check else DECODER_OPTIONS
+        decoder = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **options)
+        _loaded[check] = [decoder, decoder.current_search()]
+    return _loaded[check]
 
 
 def _is_word(name: str) -> bool:
@@ -72,11 +84,11 @@ def _is_word(name: str) -> bool:
 _RESET = (np.random.default_rng(0).normal(0.0, 30.0, 1600)).astype("<i2").tobytes()
 
 
-def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
+def _recognize_chunk(pcm: bytes, check: bool = False) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
     """The words of one chunk: (text, [(phone, first frame, end frame)],
     phones estimated).  Frames count from the chunk's start; what came
     before it does not count (:data:`_RESET`)."""
-    decoder, search = _decoder()
+    decoder, search = _decoder(check)
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
         decoder.reinit_feat()
@@ -112,26 +124,28 @@ def _recognize_chunk(pcm: bytes) -> list[tuple[str, list[tuple[str, int, int]], 
 _SHARED: dict = {}
 
 
-def _chunk_shared(key: int, t0: float, t1: float):
-    return _recognize_chunk(_SHARED[key].pcm16(t0, t1, floor=False))
+def _chunk_shared(key: int, t0: float, t1: float, check: bool):
+    return _recognize_chunk(_SHARED[key].pcm16(t0, t1, floor=False), check)
 
 
 def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: AlignSettings | None = None,
-                    progress: Callable[[float], None] | None = None) -> tuple[list[AlignedWord], list[AlignedPhone]]:
-    """Recognise the speech of each (start, end) span of ``audio`` (s).
-    Returns the words (``recognized``) and their phones, in time order; a
-    phone's ``word_index`` counts in the returned words."""
+                    progress: Callable[[float], None] | None = None, check: bool = False
+                    ) -> tuple[list[AlignedWord], list[AlignedPhone]]:
+    """Recognise the speech of each (start, end) span of ``audio`` (s), with
+    the checks' search when ``check`` (:data:`CHECK_OPTIONS`).  Returns the
+    words (``recognized``) and their phones, in time order; a phone's
+    ``word_index`` counts in the returned words."""
     settings = settings or AlignSettings()
     spans = [(a, b) for a, b in spans if b - a >= 0.05]
     if not spans:
         return [], []
-    _decoder()  # loaded before the workers are forked, which share it
+    _decoder(check)  # loaded before the workers are forked, which share it
     pool = _pool(settings) if len(spans) > 1 else None
     key = id(audio)
     _SHARED[key] = audio
     try:
         if pool is not None:
-            futures = [pool.submit(_chunk_shared, key, a, b) for a, b in spans]
+            futures = [pool.submit(_chunk_shared, key, a, b, check) for a, b in spans]
             results = []
             for k, f in enumerate(futures):
                 results.append(f.result())
@@ -140,7 +154,7 @@ def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: Al
         else:
             results = []
             for k, (a, b) in enumerate(spans):
-                results.append(_chunk_shared(key, a, b))
+                results.append(_chunk_shared(key, a, b, check))
                 if progress:
                     progress((k + 1) / len(spans))
     finally:

@@ -206,7 +206,7 @@ def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettin
         fa, fb = int(t0 / FRAME), int(np.ceil(t1 / FRAME))
         heard: list[str] = []
         if t1 - t0 >= 0.05 and mask[fa:fb].any():
-            found, _ = recognize_spans(snd, [(t0, t1)], settings)
+            found, _ = recognize_spans(snd, [(t0, t1)], settings, check=True)
             heard = [p for w in found for p in w.phones]
         run_phones = [p for w in words[a:b] for p in w.phones]
         hit = _matched(run_phones, heard)
@@ -304,7 +304,7 @@ def _heard(found: list[AlignedWord], t0: float, t1: float) -> bool:
 
 def words_heard(snd: Audio, spans: list[tuple[float, float]], settings: AlignSettings) -> list[bool]:
     """Whether words are heard (:func:`_heard`) in each (start, end) s span of ``snd``."""
-    found, _ = recognize_spans(snd, spans, settings) if spans else ([], [])
+    found, _ = recognize_spans(snd, spans, settings, check=True) if spans else ([], [])
     return [_heard(found, t0, t1) for t0, t1 in spans]
 
 
@@ -351,7 +351,7 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
         al.warnings.insert(0, warning)
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
     spans = _unscripted(snd, al, mask, settings, left_out, directions)
-    found, phones = recognize_spans(snd, spans, settings) if spans else ([], [])
+    found, phones = recognize_spans(snd, spans, settings, check=True) if spans else ([], [])
     spans = [(t0, t1) for t0, t1 in spans if _heard(found, t0, t1)]
     keep = [k for k, w in enumerate(found) if any(t0 <= w.start < t1 for t0, t1 in spans)]
     renumber = {k: i for i, k in enumerate(keep)}
