@@ -114,6 +114,11 @@ def test_the_checks_recognise_with_their_own_search(monkeypatch):
     r = analyze(FIXTURES / "bob_map.wav", "Bob")    # "bought a map" left out: recognised by the checks
     assert r.alignment.unscripted
     assert seen and all(c is True for c in seen)
+    # Each recogniser holds the language model: a process keeps the one it last used.
+    assert set(recognize._loaded) == {True}
+    analyze(FIXTURES / "bob_map.wav", None)
+    assert set(recognize._loaded) == {False}
+    assert seen and all(c is True for c in seen)
 
 
 def test_the_first_line_a_process_recognises_is_heard_as_later_ones():

@@ -5,8 +5,11 @@ each checked word by word against the transcript."""
 from __future__ import annotations
 
 import os
+import re
 import tempfile
+import threading
 from collections.abc import Sequence
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -15,24 +18,122 @@ from .fillers import base_token, dictionary_lines, has_hesitation, prefer, uncov
 from .model import FRAME, AlignSettings
 
 
+#: A kept decoder is set aside for a fresh one after this many words were added to it (each line
+#: adds its own: the dictionary would otherwise grow with every line of a batch).
+MOST_WORDS = 20000
+#: A name in a grammar or an alignment text.
+_NAME = re.compile(r"[^\s()\[\]|<>/;=*+]+")
+#: The phones of the bundled acoustic model.  A dictionary file's entry with no phones, or with one
+#: the model lacks, is passed over when pocketsphinx reads it; a word added with none crashes it, so
+#: such an entry is passed over here too.
+MODEL_PHONES = frozenset(("AA AE AH AO AW AY B CH D DH EH ER EY F G HH IH IY JH K L M N NG OW OY P R S SH "
+                          "SIL T TH UH UW V W Y Z ZH +NSN+ +SPN+").split())
+
+
+class _Kept:
+    """A pocketsphinx decoder of each configuration, not in use, kept for
+    the next :func:`_decoder` of this thread (loading the acoustic model
+    takes 10 ms, a tenth of a short line's alignment)."""
+
+    def __init__(self):
+        self.free: dict[tuple, list] = {}
+        self.uses = 0
+
+
+_KEPT = threading.local()
+
+
+class _Decoder:
+    """A pocketsphinx decoder holding the words of one use, named as the
+    caller names them (``w<i>``, ``x<phone>``): each word is added to a kept
+    decoder's dictionary under a name of this use's own, and the names are
+    mapped both ways in grammars, alignment texts, segments and alignments.
+    The decoder goes back to the kept ones when this is dropped.  Results are
+    those of a decoder made afresh: its features start afresh (noise removal
+    learns from each utterance, and would carry one line's noise to the
+    next), their normalisation is per utterance (``cmn`` batch), and no other
+    use's word is in its searches."""
+
+    def __init__(self, key: tuple, lines: list[str], extra: dict):
+        import pocketsphinx
+
+        kept = getattr(_KEPT, "kept", None) or _Kept()
+        _KEPT.kept = kept
+        free = kept.free.setdefault(key, [])
+        kept.uses += 1
+        self._key, self._kept = key, kept
+        self._prefix = f"u{kept.uses}_"
+        self._decoder, self._words = free.pop() if free else (None, 0)
+        if self._decoder is not None:
+            # Noise removal learns from each utterance and carries it to the next: start afresh.
+            self._decoder.reinit_feat()
+        else:
+            beam, pbeam, wbeam, silprob = key[:4]
+            with tempfile.NamedTemporaryFile("w", suffix=".dict", delete=False) as fh:
+                path = fh.name
+            try:
+                self._decoder = pocketsphinx.Decoder(
+                    lm=None, dict=path, bestpath=False, samprate=16000, loglevel="FATAL",
+                    beam=beam, pbeam=pbeam, wbeam=wbeam, silprob=silprob, **extra)
+            finally:
+                os.unlink(path)
+        entries = [line.split() for line in lines]
+        entries = [e for e in entries if len(e) > 1 and MODEL_PHONES.issuperset(e[1:])]
+        self._names = {e[0].split("(")[0] for e in entries}
+        for k, e in enumerate(entries):
+            self._decoder.add_word(self._prefix + e[0], " ".join(e[1:]), k == len(entries) - 1)
+        self._words += len(entries)
+
+    def __del__(self):
+        kept = getattr(self, "_kept", None)
+        free = kept.free.setdefault(self._key, []) if kept is not None else None
+        if free is not None and not free and self._words < MOST_WORDS:
+            free.append((self._decoder, self._words))   # one a configuration: each holds the model (6 MB)
+
+    def _in(self, text: str) -> str:
+        return _NAME.sub(lambda m: self._prefix + m.group(0) if m.group(0) in self._names else m.group(0), text)
+
+    def _out(self, name: str) -> str:
+        return name[len(self._prefix):] if name.startswith(self._prefix) else name
+
+    def set_align_text(self, text: str) -> None:
+        self._decoder.set_align_text(self._in(text))
+
+    def add_jsgf_string(self, name: str, grammar: str) -> None:
+        self._decoder.add_jsgf_string(name, self._in(grammar))
+
+    def seg(self):
+        segs = self._decoder.seg()
+        return None if segs is None else [SimpleNamespace(word=self._out(sg.word), start_frame=sg.start_frame,
+                                                          end_frame=sg.end_frame) for sg in segs]
+
+    def get_alignment(self):
+        alignment = self._decoder.get_alignment()
+        return None if alignment is None else [_Word(self._out(w.name), list(w)) for w in alignment]
+
+    def __getattr__(self, attr: str):       # start_utt, process_raw, end_utt, activate_search, set_alignment
+        if attr.startswith("_"):
+            raise AttributeError(attr)
+        return getattr(self._decoder, attr)
+
+
+class _Word(list):
+    """One word of an alignment: its phones, and its ``name``."""
+
+    def __init__(self, name: str, phones: list):
+        super().__init__(phones)
+        self.name = name
+
+
 def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, fillers: bool = False,
              more: Sequence[str] = (), **extra):
     """A decoder whose dictionary holds only the given words, as tokens w<i>
     (with ``fillers``, a hesitation also as a filler: :mod:`.fillers`), and
-    the dictionary lines ``more``."""
-    import pocketsphinx
-
-    with tempfile.NamedTemporaryFile("w", suffix=".dict", delete=False) as fh:
-        for k, ph in enumerate(prons):
-            fh.write("".join(line + "\n" for line in dictionary_lines(f"w{first + k}", ph, fillers)))
-        fh.write("".join(line + "\n" for line in more))
-        path = fh.name
-    try:
-        return pocketsphinx.Decoder(
-            lm=None, dict=path, bestpath=False, samprate=16000, loglevel="FATAL",
-            beam=settings.beam, pbeam=settings.pbeam, wbeam=settings.wbeam, silprob=settings.silprob, **extra)
-    finally:
-        os.unlink(path)
+    the dictionary lines ``more``; a kept one where there is one
+    (:class:`_Decoder`)."""
+    lines = [line for k, ph in enumerate(prons) for line in dictionary_lines(f"w{first + k}", ph, fillers)]
+    key = (settings.beam, settings.pbeam, settings.wbeam, settings.silprob, tuple(sorted(extra.items())))
+    return _Decoder(key, lines + list(more), extra)
 
 
 def _grammar(tokens: list[str], mode: str) -> str:

@@ -55,16 +55,19 @@ DECODER_OPTIONS = dict(ds=1, fwdflat=False, bestpath=False, lw=4.0, maxhmmpf=500
 CHECK_OPTIONS = dict(DECODER_OPTIONS, ds=2)
 
 _VARIANT = re.compile(r"\(\d+\)$")
-_loaded: dict = {}   # {check: [decoder, its language-model search]}, each once loaded
+_loaded: dict = {}   # {check: [decoder, its language-model search]}, the one last used
 
 
 def _decoder(check: bool = False):
     """The recogniser (with ``check``, the checks' one: :data:`CHECK_OPTIONS`),
-    loaded once (the language model takes a while); the worker processes are
-    forked with it loaded and use their own copy."""
+    loaded once (the language model takes 0.4 s); the worker processes are
+    forked with it loaded and use their own copy.  Each holds the language
+    model (90 MB), so a process keeps one: loading the other frees it (a
+    batch of lines with and without transcripts stays within its memory)."""
     import pocketsphinx
 
     if check not in _loaded:
+        _loaded.clear()
         options = CHECK_OPTIONS if check else DECODER_OPTIONS
         decoder = pocketsphinx.Decoder(samprate=16000, loglevel="FATAL", **options)
         _loaded[check] = [decoder, decoder.current_search()]
