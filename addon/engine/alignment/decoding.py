@@ -1,6 +1,6 @@
-"""pocketsphinx decoding: a dictionary holding only the clip's words (each a
-unique token ``w<i>``), a forced or grammar word pass, then the phone pass,
-each checked word by word against the transcript."""
+"""pocketsphinx decoding: a decoder knowing the clip's words (each a unique
+token ``w<i>``), a forced or grammar word pass, then the phone pass, each
+checked word by word against the transcript."""
 
 from __future__ import annotations
 
@@ -87,8 +87,8 @@ class _Decoder:
     def __del__(self):
         kept = getattr(self, "_kept", None)
         free = kept.free.setdefault(self._key, []) if kept is not None else None
-        if free is not None and not free and self._words < MOST_WORDS:
-            free.append((self._decoder, self._words))   # one a configuration: each holds the model (6 MB)
+        if free is not None and not free and self._decoder is not None and self._words < MOST_WORDS:
+            free.append((self._decoder, self._words))   # one a configuration: each holds the model (7 MB)
 
     def _in(self, text: str) -> str:
         return _NAME.sub(lambda m: self._prefix + m.group(0) if m.group(0) in self._names else m.group(0), text)
@@ -127,10 +127,10 @@ class _Word(list):
 
 def _decoder(prons: Sequence[Sequence[str]], first: int, settings: AlignSettings, fillers: bool = False,
              more: Sequence[str] = (), **extra):
-    """A decoder whose dictionary holds only the given words, as tokens w<i>
-    (with ``fillers``, a hesitation also as a filler: :mod:`.fillers`), and
-    the dictionary lines ``more``; a kept one where there is one
-    (:class:`_Decoder`)."""
+    """A decoder that knows the given words, as tokens w<i> (with
+    ``fillers``, a hesitation also as a filler: :mod:`.fillers`), and the
+    dictionary lines ``more``, and no other words under those names; a
+    kept one where there is one (:class:`_Decoder`)."""
     lines = [line for k, ph in enumerate(prons) for line in dictionary_lines(f"w{first + k}", ph, fillers)]
     key = (settings.beam, settings.pbeam, settings.wbeam, settings.silprob, tuple(sorted(extra.items())))
     return _Decoder(key, lines + list(more), extra)
