@@ -19,8 +19,8 @@ _WARM = False
 
 def warm(dictionary: str | None = None) -> None:
     """Load what every line needs, once per process: the engine's modules,
-    parselmouth, the CMU dictionary and pocketsphinx's acoustic model (its
-    files then come from the page cache for each line's small decoder)."""
+    parselmouth, the CMU dictionary and a pocketsphinx decoder with the
+    acoustic model, which the lines' passes then reuse (alignment.decoding)."""
     global _WARM
     if _WARM:
         return
