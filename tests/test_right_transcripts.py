@@ -199,3 +199,31 @@ def test_a_clip_is_slowed_alike_every_time():
     a, b = tempo.slowed(snd), tempo.slowed(snd)
     assert np.array_equal(a.samples, b.samples)
     assert a.duration == pytest.approx(snd.duration * tempo.SLOWER, abs=0.02)
+
+
+def test_the_edge_of_a_word_placed_late_is_not_heard_as_speech_before_it():
+    """A creaky "montreal" placed 60 ms late leaves its /m/ outside the words
+    (the stretch before it ends 0.15 s before it): heard as "maw" after a hum
+    heard as "poop", it must not make two words of unscripted speech."""
+    from addon.engine.alignment.model import AlignedWord
+    from addon.engine.alignment.verify import _edges_of_spoken, _heard
+
+    said = [AlignedWord("montreal", 1.57, 2.65, "M AH N T R IY AO L".split()),
+            AlignedWord("forced", 2.65, 3.44, "F AO R S T".split())]
+    stretch = [(0.0, 1.42)]
+
+    def heard(*words):
+        return [AlignedWord(t, a, b, ph.split(), recognized=True) for t, a, b, ph in words]
+
+    found = heard(("poop", 0.06, 1.31, "P UW P"), ("maw", 1.31, 1.41, "M AO"))
+    assert _heard(found, *stretch[0])
+    assert _edges_of_spoken(found, stretch, said) == {1}
+    # Only a short word, running up to the stretch's end, that starts as the spoken word does.
+    assert not _edges_of_spoken(heard(("up", 0.07, 1.1, "AH P"), ("mawl", 1.1, 1.41, "M AO L")), stretch, said)
+    assert not _edges_of_spoken(heard(("up", 0.07, 1.31, "AH P"), ("saw", 1.31, 1.41, "S AO")), stretch, said)
+    assert not _edges_of_spoken(heard(("up", 0.07, 1.2, "AH P"), ("maw", 1.2, 1.3, "M AO")), stretch, said)
+    assert not _edges_of_spoken(found, stretch, [AlignedWord("montreal", 1.9, 2.65, "M AH N".split())])
+    # After a spoken word placed a little early: its last phone heard at the stretch's start.
+    after = [(2.8, 4.0)]
+    found = heard(("el", 2.8, 2.9, "EH L"), ("go", 3.1, 3.4, "G OW"))
+    assert _edges_of_spoken(found, after, [AlignedWord("montreal", 1.57, 2.65, "M AH N T R IY AO L".split())]) == {0}
