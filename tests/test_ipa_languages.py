@@ -98,6 +98,14 @@ def test_a_word_written_in_ipa_keeps_every_written_segment():
     assert word("k͡pa") == ["K", "P", "AA"]           # a tie that makes no English phone: both shown
 
 
+def test_a_labialised_consonant_in_a_written_word_rounds_the_lips_after_it():
+    # Columbia-Wenatchi "t'əkʷp": the lips round through the release of kʷ before the p closes them.
+    assert to_arpabet("tʼəkʷp", word=True) == ["T", "AH", "K", "W", "P"]
+    assert to_arpabet("ŋʷa", word=True) == ["NG", "W", "AA"]
+    assert to_arpabet("wʷa", word=True) == ["W", "AA"]    # rounded already: no second W
+    assert to_arpabet("kʷ") == ["K"]                       # a phone label stays one phone
+
+
 def test_a_symbol_that_is_not_ipa_is_named_with_file_and_time(tmp_path):
     f = tmp_path / "bad.TextGrid"
     f.write_text(grid(["ʁ", "aQ", "n"]), encoding="utf-8")
