@@ -135,6 +135,7 @@ def to_arpabet(label: str, word: bool = False) -> list[str]:
             tied.append(False)
             k += 2
             continue
+        rounds = False
         if ch in tab["vowels"]:
             height, back, rounded = tab["vowels"][ch][:3]
             phones.append(vowel_phone(height, back, rounded, "˞" in marks))
@@ -142,12 +143,12 @@ def to_arpabet(label: str, word: bool = False) -> list[str]:
         else:
             phones.append(consonant_phone(*tab["consonants"][ch]))
             kinds.append("C")
-            if word and LABIALISED in marks and phones[-1] != "W":
-                # Rounded lips through the consonant's release: a W of its own after it.
-                tied.append(joins)
-                phones.append("W")
-                kinds.append("C")
+            rounds = word and LABIALISED in marks and phones[-1] != "W"
         tied.append(joins)
+        if rounds:      # the lips round through the consonant's release: a W of its own after it
+            phones.append("W")
+            kinds.append("C")
+            tied.append(joins)
         k += 1
     # Geminates and doubled vowels: one phone (a written word keeps both).
     merged: list[str] = []
