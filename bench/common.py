@@ -14,6 +14,52 @@ DATA = Path(os.environ.get("LIPSYNC_DATA", ROOT.parent / "shared" / "data"))
 sys.path.insert(0, str(ROOT))
 
 
+#: A viseme at this weight or more shows the mouth open; the closure at EVENT_CLOSED or more, the lips shut.
+EVENT_OPEN = 0.2
+EVENT_CLOSED = 0.5
+
+
+def events(r, ref):
+    """The speech events an analysis ``r`` (rendered at 100 fps) shows, against
+    reference phones ``ref`` ((set of phones, start s, end s), in any order):
+    ``vowel`` a hit for every vowel with the mouth open (some viseme at
+    :data:`EVENT_OPEN` or more) on at least half of its frames, ``pbm`` for
+    every /p b m/ with the lips closed (closure :data:`EVENT_CLOSED` or more)
+    on a frame within 30 ms of it, ``pause`` for every pause of 0.3 s or more
+    between reference phones with the mouth at rest on at least half of it;
+    ``vowel_frames`` and ``vowel_closed`` count the vowels' frames and those
+    with the lips closed.  The event score of the benchmarks is the mean of
+    ``hits``, all three together."""
+    from types import SimpleNamespace
+
+    from addon.engine.language.phonemes import VOWELS
+
+    active = r.curves.max(axis=1) >= EVENT_OPEN
+    closed = r.closure >= EVENT_CLOSED
+
+    def frames(a, b):
+        return np.flatnonzero((r.times >= a) & (r.times < b))
+
+    out = SimpleNamespace(pbm=[], vowel=[], pause=[], vowel_frames=0, vowel_closed=0)
+    for phones, a, b in ref:
+        if phones & VOWELS:
+            f = frames(a, b)
+            if len(f):
+                out.vowel.append(bool(active[f].mean() >= 0.5))
+                out.vowel_frames += len(f)
+                out.vowel_closed += int(closed[f].sum())
+        elif phones & {"P", "B", "M"}:
+            f = frames(a - 0.03, b + 0.03)
+            out.pbm.append(bool(len(f)) and bool(closed[f].any()))
+    ordered = sorted(ref, key=lambda x: x[1])
+    for (_, _, end), (_, start, _) in zip(ordered[:-1], ordered[1:]):
+        if start - end >= 0.3:
+            f = frames(end, start)
+            out.pause.append(bool(len(f)) and bool((~active[f]).mean() >= 0.5))
+    out.hits = out.pbm + out.vowel + out.pause
+    return out
+
+
 def need_data() -> Path:
     """The shared recordings folder, or exit cleanly (status 0) when absent."""
     if not DATA.is_dir():

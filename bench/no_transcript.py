@@ -33,19 +33,15 @@ import argparse
 import ast
 import sys
 import time
-from types import SimpleNamespace
 
 import numpy as np
 
-from common import need_data, reference_phones, transcript_clips
+from common import events, need_data, reference_phones, transcript_clips
 from addon.engine import audio as audio_mod
 from addon.engine.importers import read_textgrid
-from addon.engine.language.phonemes import VOWELS
 from addon.engine.pipeline import analyze
 from addon.engine.settings import LineSettings
 
-OPEN = 0.2
-CLOSED = 0.5
 GROUPS = ("timit", "natural", "read", "voice")
 
 
@@ -71,33 +67,6 @@ def clips() -> list[tuple[str, str, object, str, list]]:
         out.append(("voice", name, snd, text,
                     [({p.phone}, p.start, p.end) for p in al.phones if al.words[p.word_index].spoken]))
     return out
-
-
-def score(r, ref) -> SimpleNamespace:
-    """Event hits by kind, and vowel frames closed, of one analysis ``r``."""
-    active = r.curves.max(axis=1) >= OPEN
-    closed = r.closure >= CLOSED
-
-    def frames(a, b):
-        return np.flatnonzero((r.times >= a) & (r.times < b))
-
-    s = SimpleNamespace(pbm=[], vowel=[], pause=[], vowel_frames=0, vowel_closed=0)
-    for phones, a, b in ref:
-        if phones & VOWELS:
-            f = frames(a, b)
-            if len(f):
-                s.vowel.append(active[f].mean() >= 0.5)
-                s.vowel_frames += len(f)
-                s.vowel_closed += int(closed[f].sum())
-        elif phones & {"P", "B", "M"}:
-            f = frames(a - 0.03, b + 0.03)
-            s.pbm.append(bool(len(f)) and bool(closed[f].any()))
-    ordered = sorted(ref, key=lambda x: x[1])
-    for (_, _, end), (_, start, _) in zip(ordered[:-1], ordered[1:]):
-        if start - end >= 0.3:
-            f = frames(end, start)
-            s.pause.append(bool(len(f)) and (~active[f]).mean() >= 0.5)
-    return s
 
 
 def part(ss, key: str) -> str:
@@ -133,8 +102,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         r = analyze(snd, None, LineSettings.of(fps=100))
         dt = time.perf_counter() - t0
-        s = score(r, ref)
-        s.events = float(np.mean(s.pbm + s.vowel + s.pause)) if s.pbm + s.vowel + s.pause else 1.0
+        s = events(r, ref)
+        s.events = float(np.mean(s.hits)) if s.hits else 1.0
         s.time, s.duration = dt, snd.duration
         rows[group].append(s)
         if args.verbose:

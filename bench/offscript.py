@@ -58,7 +58,7 @@ import time
 
 import numpy as np
 
-from common import DATA, match, reference_phones
+from common import DATA, EVENT_OPEN, events, match, reference_phones
 from addon.engine import audio as audio_mod
 from addon.engine.errors import LipSyncError
 from addon.engine.importers import read_textgrid
@@ -69,7 +69,7 @@ APPENDED = "and then the purple elephant quietly danced"
 CUT_AT = (1 / 3, 1 / 6, 1 / 2, 2 / 3)
 SWAP_AT = (0.2, 0.35, 0.5, 0.65, 0.8)
 WRONG = ("elephant", "blue")
-OPEN = 0.2
+OPEN = EVENT_OPEN
 
 
 def _frames(r, a: float, b: float) -> np.ndarray:
@@ -77,22 +77,9 @@ def _frames(r, a: float, b: float) -> np.ndarray:
 
 
 def event_score(r, ref) -> tuple[float, int]:
-    """(share of events hit, events); see the module's docstring."""
-    active = r.curves.max(axis=1) >= OPEN
-    hits = []
-    for p in ref.phones:
-        if p.phone in VOWELS:
-            f = _frames(r, p.start, p.end)
-            if len(f):
-                hits.append(active[f].mean() >= 0.5)
-        elif p.phone in {"P", "B", "M"}:
-            f = _frames(r, p.start - 0.03, p.end + 0.03)
-            hits.append(bool(len(f)) and r.closure[f].max() >= 0.5)
-    phones = sorted(ref.phones, key=lambda p: p.start)
-    for p, q in zip(phones[:-1], phones[1:]):
-        if q.start - p.end >= 0.3:
-            f = _frames(r, p.end, q.start)
-            hits.append((~active[f]).mean() >= 0.5)
+    """(share of events hit, events) of the reference ``ref`` (a TextGrid's
+    phones): bench/common.py ``events``."""
+    hits = events(r, [({p.phone}, p.start, p.end) for p in ref.phones]).hits
     return float(np.mean(hits)), len(hits)
 
 

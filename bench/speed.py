@@ -23,6 +23,7 @@ when absent).
 
     .venv/bin/python bench/speed.py
     .venv/bin/python bench/speed.py --against /tmp/before --only-against
+    .venv/bin/python bench/speed.py --against /tmp/prev --only-against --clips mfa_ corpus
 """
 
 from __future__ import annotations
@@ -161,9 +162,9 @@ for line in sys.stdin:
 """
 
 
-def against(other: str) -> None:
-    """Every English clip with a transcript, analysed in-process by this checkout and by ``other``,
-    taking turns clip by clip."""
+def against(other: str, only: list[str] | None = None) -> None:
+    """Every English clip with a transcript (``only``: those whose name holds one of these), analysed
+    in-process by this checkout and by ``other``, taking turns clip by clip."""
     import os
     from pathlib import Path
 
@@ -171,6 +172,8 @@ def against(other: str) -> None:
     clips = [(name, path, text) for name, path, text in __import__("common").transcript_clips()]
     for wav in sorted((DATA / "timit_nltk").glob("*/*.wav")):
         clips.append((f"{wav.parent.name}/{wav.stem}", wav, " ".join(wav.with_suffix(".txt").read_text().split()[2:])))
+    if only:
+        clips = [c for c in clips if any(o in c[0] for o in only)]
     timers = {}
     for label, root in (("this", str(ROOT)), ("other", os.path.abspath(other))):
         timers[label] = subprocess.Popen([sys.executable, "-c", _TIMER, root],
@@ -207,9 +210,10 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--against", help="another checkout of the project, timed beside this one clip by clip")
     ap.add_argument("--only-against", action="store_true", help="only that comparison")
+    ap.add_argument("--clips", nargs="*", help="with --against, only the clips whose name holds one of these")
     args = ap.parse_args()
     if not args.only_against:
         main()
     if args.against:
         need_data()
-        against(args.against)
+        against(args.against, args.clips)

@@ -39,7 +39,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from common import match, need_data
+from common import events, match, need_data
 from addon.engine import audio as audio_mod
 from addon.engine.alignment import align_audio
 from addon.engine.language.phonemes import VOWELS
@@ -112,25 +112,7 @@ def event_score(al, ref, snd) -> list[bool]:
     from addon.engine.settings import LineSettings
 
     r = analyze(snd, settings=LineSettings.of(fps=100), alignment=al)
-    active = r.curves.max(axis=1) >= 0.2
-
-    def frames(a, b):
-        return np.flatnonzero((r.times >= a) & (r.times < b))
-
-    hits = []
-    for p in ref:
-        if p.phones & VOWELS:
-            f = frames(p.start, p.end)
-            if len(f):
-                hits.append(active[f].mean() >= 0.5)
-        elif p.phones & {"P", "B", "M"}:
-            f = frames(p.start - 0.03, p.end + 0.03)
-            hits.append(bool(len(f)) and r.closure[f].max() >= 0.5)
-    for p, q in zip(ref[:-1], ref[1:]):
-        if q.start - p.end >= 0.3:
-            f = frames(p.end, q.start)
-            hits.append(bool(len(f)) and (~active[f]).mean() >= 0.5)
-    return hits
+    return events(r, [(p.phones, p.start, p.end) for p in ref]).hits
 
 
 def run(data: Path, speakers, limit, events: bool, verbose: bool) -> dict:
