@@ -142,3 +142,50 @@ def test_the_aligner_starts_a_word_from_ipa_at_its_voicing_and_an_english_one_at
     assert english.phones[0].start >= 0.39                    # at its release
     unmarked = core.align(snd, phones)
     assert [(p.phone, p.start, p.end) for p in unmarked.phones] == [(p.phone, p.start, p.end) for p in english.phones]
+
+
+def _hiss_then_voice(hiss_at: float = 0.2, voice_at: float = 0.4, click_at: float | None = None) -> Audio:
+    """Faint noise; from ``hiss_at`` a hiss between 4.5 and 7.5 kHz (a sibilant, which the band of
+    the voice's onset does not hear); from ``voice_at`` a voice over it; with ``click_at``, a 5 ms
+    click there (a lip smack)."""
+    rng = np.random.default_rng(7)
+    n = int(0.7 * RATE)
+    t = np.arange(n) / RATE
+    x = 0.0005 * rng.standard_normal(n)
+    spec = np.fft.rfft(rng.standard_normal(n))
+    f = np.fft.rfftfreq(n, 1 / RATE)
+    spec[(f < 4500) | (f > 7500)] = 0
+    hiss = np.fft.irfft(spec, n)
+    hiss *= 0.03 / hiss.std()
+    x[t >= hiss_at] += hiss[t >= hiss_at]
+    on = t >= voice_at
+    x[on] += sum(0.1 / k * np.sin(2 * np.pi * 120 * k * t[on]) for k in range(1, 25))
+    if click_at is not None:
+        c0 = int(click_at * RATE)
+        x[c0:c0 + int(0.005 * RATE)] += 0.3 * rng.standard_normal(int(0.005 * RATE))
+    return Audio(x.astype(np.float32), RATE)
+
+
+def test_a_fricative_from_ipa_starts_where_its_hiss_does():
+    # /sa/ aligned late (the silence took the start of the /s/): the /s/ starts with its hiss.
+    snd = _hiss_then_voice(0.2, 0.4)
+    result = [[("S", 0.33, 0.4), ("AA", 0.4, 0.65)]]
+    place_onsets(snd, result, [False], [True])
+    assert abs(result[0][0][1] - 0.2) <= 0.012 and result[0][0][2] == 0.4
+    # A click before the hiss is not its onset.
+    snd = _hiss_then_voice(0.2, 0.4, click_at=0.12)
+    result = [[("S", 0.33, 0.4), ("AA", 0.4, 0.65)]]
+    place_onsets(snd, result, [False], [True])
+    assert abs(result[0][0][1] - 0.2) <= 0.012
+
+
+def test_hiss_before_a_word_that_starts_with_a_vowel_is_not_its_start():
+    # A breath's hiss before /a/: the vowel starts with the voice, not with the hiss.
+    snd = _hiss_then_voice(0.2, 0.4)
+    result = [[("AA", 0.38, 0.65)]]
+    place_onsets(snd, result, [False], [True])
+    assert abs(result[0][0][1] - 0.4) <= 0.012
+    # An English word keeps its aligned start.
+    result = [[("S", 0.33, 0.4), ("AA", 0.4, 0.65)]]
+    place_onsets(snd, result, [False], [False])
+    assert result[0][0] == ("S", 0.33, 0.4)
