@@ -240,3 +240,20 @@ def test_unreachable_scheduler_is_one_clear_error(lines_dir):
     assert r.returncode == 1
     assert r.stderr.startswith("error: cannot reach the Dask scheduler at tcp://127.0.0.1:9")
     assert "Traceback" not in r.stderr
+
+
+def test_a_worker_process_keeps_blas_to_one_thread():
+    """A batch's worker processes run one line each at a time on a core of their own: numpy's BLAS
+    is held to one thread there (its threads would spin on the other workers' cores)."""
+    code = ("import threadpoolctl\n"
+            "from addon.engine import batch\n"
+            "def blas():\n"
+            "    return max(i['num_threads'] for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas')\n"
+            "before = blas()\n"
+            "batch._pool_init(None)\n"
+            "print(before, blas())\n")
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2", "MKL_NUM_THREADS": "2"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["2", "1"]

@@ -85,3 +85,23 @@ def test_the_shipped_model_is_read_and_a_broken_one_is_named(tmp_path):
     path.write_text("{", encoding="utf-8")
     with pytest.raises(LipSyncError, match="cannot be read"):
         refine.model(path)
+
+
+def test_band_levels_sum_each_band_s_bins():
+    """The boundary model's band levels are each band's power summed over its own bins (from its
+    low edge up to, not including, its high one), as a band-matrix product gives them."""
+    doc = refine.model()
+    rng = np.random.default_rng(3)
+    snd = Audio(rng.normal(0, 0.1, 16000).astype(np.float32), 16000)
+    n, h = int(round(doc["window"] * 16000)), int(round(doc["hop"] * 16000))
+    freq = np.fft.rfftfreq(n, 1 / 16000)
+    bands = np.stack([(freq >= lo) & (freq < hi) for lo, hi in doc["bands"]], 1).astype(float)
+    seg = np.concatenate([np.zeros(n // 2), snd.samples.astype(float), np.zeros(n)])
+    frames = np.lib.stride_tricks.sliding_window_view(seg, n)[::h]
+    f = np.fft.rfft(frames * np.hanning(n), axis=1)
+    levels = 10 * np.log10((np.abs(f) ** 2) @ bands + 1e-4)
+    s = int(round(doc["step"] / doc["hop"]))
+    expected = levels[2 * s:] - levels[:-2 * s]
+    got = refine.band_changes(snd, doc)
+    assert np.allclose(got[s:s + len(expected)], expected, atol=1e-6)
+    assert np.abs(got[s:-s]).max() > 0.1

@@ -98,7 +98,9 @@ def band_changes(audio: Audio, doc: dict) -> np.ndarray:
     n, h = int(round(doc["window"] * rate)), int(round(doc["hop"] * rate))
     count = -(-(total + n // 2 + 1) // h)            # frames whose window starts within the clip (or its padding)
     freq = np.fft.rfftfreq(n, 1.0 / rate)
-    bands = np.stack([(freq >= lo) & (freq < hi) for lo, hi in doc["bands"]], 1).astype(np.float64)
+    # Each band's bins as a slice (summed, not multiplied by a band matrix: a matrix product spins
+    # up the BLAS library's threads, which take the other core from a batch's second worker).
+    bands = [(int(np.searchsorted(freq, lo)), int(np.searchsorted(freq, hi))) for lo, hi in doc["bands"]]
     window = np.hanning(n)
     levels = np.empty((count, len(doc["bands"])))
     for k0 in range(0, count, BLOCK):
@@ -109,7 +111,8 @@ def band_changes(audio: Audio, doc: dict) -> np.ndarray:
         if b > a:
             seg[a - lo:b - lo] = audio.samples[a:b]
         f = np.fft.rfft(np.lib.stride_tricks.sliding_window_view(seg, n)[::h] * window, axis=1)
-        levels[k0:k1] = 10 * np.log10((f.real ** 2 + f.imag ** 2) @ bands + 1e-4)
+        power = f.real ** 2 + f.imag ** 2
+        levels[k0:k1] = 10 * np.log10(np.stack([power[:, i:j].sum(axis=1) for i, j in bands], 1) + 1e-4)
     s = int(round(doc["step"] / doc["hop"]))
     change = np.zeros_like(levels)
     if len(levels) > 2 * s:

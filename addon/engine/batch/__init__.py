@@ -43,7 +43,7 @@ from .lines import COLUMNS, FORMATS, ROW_COLUMNS, SETTING_COLUMNS, Line, Outcome
 from .manifest import output_paths, read_manifest
 from .records import CSV_RECORD_SUFFIX, RECORD_SCHEMA, Digests, engine_version, freshness, produced_by, \
     read_record, up_to_date, why_stale
-from .work import analyze_line, one_line_error, warm, work, write_outputs
+from .work import analyze_line, one_core, one_line_error, warm, work, write_outputs
 
 __all__ = ["COLUMNS", "CSV_RECORD_SUFFIX", "FORMATS", "RECORD_SCHEMA", "ROW_COLUMNS", "SETTING_COLUMNS", "Digests",
            "Line", "Outcome", "Report", "analyze_line", "check_audio_path", "engine_version", "freshness",
@@ -62,6 +62,7 @@ def run_inline(lines: list[Line], defaults: LineSettings,
 
 
 def _pool_init(dictionary):
+    one_core()
     warm(dictionary)
 
 

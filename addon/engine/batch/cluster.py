@@ -45,7 +45,7 @@ from ..errors import LipSyncError
 from ..settings import LineSettings
 from .lines import Line, Outcome
 from .records import engine_version
-from .work import one_line_error, warm, work
+from .work import one_core, one_line_error, warm, work
 
 #: Distributions whose versions must match this machine's: the engine's (the
 #: results must equal ``analyze``'s here) and Dask's (the task graph is pickled).
@@ -219,6 +219,7 @@ def _check(expected: dict, dictionary: str | None) -> str | None:
     try:
         for module in MODULES:
             importlib.import_module(module)
+        one_core()
         warm(dictionary)
     except ImportError as exc:   # what the worker's environment lacks
         return f"cannot load the lip-sync engine: {exc}"

@@ -43,6 +43,20 @@ def warm(dictionary: str | None = None) -> None:
     _WARM = True
 
 
+def one_core() -> None:
+    """Keep numpy's BLAS to one thread in a process that lip-syncs one line
+    at a time beside others (a batch's worker processes, a Dask worker).  The
+    engine's matrices are small; given a thread per core, BLAS gains nothing
+    on them, and its threads spin on after each product, taking the core of
+    the worker beside it.  (threadpoolctl comes with the batch's packages;
+    without it, nothing is changed.)"""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return
+    threadpool_limits(1, user_api="blas")
+
+
 def one_line_error(exc: BaseException) -> str:
     """An exception as one line a user can read (no traceback)."""
     if isinstance(exc, LipSyncError):
