@@ -18,13 +18,37 @@ from conftest import SAMPLE
 
 
 def test_a_nasal_after_a_labial_stop_may_be_said_with_the_lips_shut():
-    lappen, liegt = ["L", "AE", "P", "AH", "N"], ["L", "IY", "K", "T"]
-    (found, none) = assimilation.variants([lappen, liegt], "de", [["L", "AA", "P", "AH", "N"], liegt])
-    assert found == [(["L", "AE", "P", "M"], ["L", "AA", "P", "M"])] and none == []
     assert assimilation.variants([["HH", "AE", "P", "AH", "N"]], "en") == [[(["HH", "AE", "P", "M"],) * 2]]
+    assert assimilation.variants([["R", "IH", "B", "AH", "N"]], "nl") == [[(["R", "IH", "B", "M"],) * 2]]
     # Not after other sounds, and not in a language the rule does not name.
-    assert assimilation.variants([["S", "EH", "V", "AH", "N"]], "de") == [[]]
+    assert assimilation.variants([["S", "EH", "V", "AH", "N"]], "nl") == [[]]
     assert assimilation.variants([["L", "AE", "P", "AH", "N"]], "fr") == [[]]
+
+
+def test_german_en_after_a_labial_stop_is_always_said_with_the_lips_shut():
+    """German '-en' after /p b/ ends a syllable as [m]: 'Lappen' [lapm], 'Abend' [a:bmt], their stand-ins
+    and shown phones alike, and is no longer a choice; before a vowel of the word it stays ('benutzen')."""
+    lappen, liegt = ["L", "AE", "P", "AH", "N"], ["L", "IY", "K", "T"]
+    said = assimilation.said([lappen, liegt, ["AE", "B", "AH", "N", "T"]], "de",
+                             [["L", "AA", "P", "AH", "N"], liegt, ["AA", "B", "AH", "N", "T"]])
+    assert said == [(["L", "AE", "P", "M"], ["L", "AA", "P", "M"]), (liegt, liegt),
+                    (["AE", "B", "M", "T"], ["AA", "B", "M", "T"])]
+    # At the end of a word whatever follows, vowel or not.
+    assert assimilation.said([lappen, ["AY", "N"]], "de")[0][0] == ["L", "AE", "P", "M"]
+    benutzen = ["B", "AH", "N", "UH", "T", "S", "AH", "N"]
+    assert assimilation.said([benutzen], "de") == [(benutzen, benutzen)]
+    assert assimilation.variants([lappen, liegt], "de") == [[], []]
+    # English 'happen' is not always said so: it stays a choice the sound makes.
+    assert assimilation.said([["HH", "AE", "P", "AH", "N"]], "en")[0][0] == ["HH", "AE", "P", "AH", "N"]
+
+
+def test_a_german_line_is_aligned_and_shown_with_the_lips_shut_in_lappen():
+    lex = Lexicon.with_user_file(None, "de")
+    prons = transcript.always_said([lex.pronounce(w) for w in normalize("Der Lappen liegt", lex.language)], "de")
+    assert prons[1].aligned[-1] == "M" and prons[1].phones[-1] == "M" and "N" not in prons[1].phones
+    # Written out by the user, a word keeps its phones.
+    written = transcript.always_said([Pronunciation("lappen", ["L", "AA", "P", "AH", "N"], "inline")], "de")
+    assert written[0].phones == ["L", "AA", "P", "AH", "N"]
 
 
 def test_n_before_a_labial_may_be_said_m_within_a_word_and_across_words():
@@ -36,12 +60,15 @@ def test_n_before_a_labial_may_be_said_m_within_a_word_and_across_words():
 
 
 def test_the_rules_together_and_a_studios_own_file(tmp_path):
-    # "abend" said [a:bmt]; English "button" with a syllabic nasal.
-    assert (["AE", "B", "M", "T"],) * 2 in assimilation.variants([["AE", "B", "AH", "N", "T"]], "de")[0]
+    # Dutch "lobben" [lobm] beside "n" before "b"; English "button" with a syllabic nasal.
+    assert (["L", "AO", "B", "M", "B"],) * 2 in assimilation.variants([["L", "AO", "B", "AH", "N", "B"]], "nl")[0]
     assert assimilation.variants([["B", "AH", "T", "AH", "N"]], "en") == [[(["B", "AH", "T", "N"],) * 2]]
     bad = tmp_path / "rules.json"
     bad.write_text(json.dumps({"rules": [{"name": "no match"}]}))
     with pytest.raises(PresetError, match=r"rules\[0\].*'match' and 'becomes'"):
+        assimilation.rules(bad)
+    bad.write_text(json.dumps({"rules": [{"match": ["N"], "becomes": ["M"], "always": "yes"}]}))
+    with pytest.raises(PresetError, match=r"rules\[0\]\.always.*true or false"):
         assimilation.rules(bad)
 
 

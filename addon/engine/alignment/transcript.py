@@ -11,6 +11,7 @@ said so in the alignment's notes and warnings.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
 
@@ -39,7 +40,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     settings = settings or AlignSettings()
     words = normalize(text, lexicon.language)
     directions = stage_direction_gaps(text, lexicon.language)
-    prons = [lexicon.pronounce(w) for w in words]
+    prons = always_said(list(lexicon.pronounce(w) for w in words), lexicon.language.code)
     phones = said_as(prons, lexicon.language.code)
 
     def run(clip: Audio, report=None, stand_in: dict[int, list[str]] | None = None) -> Alignment:
@@ -129,6 +130,19 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
 
 #: Pronunciations the user wrote out (inline, in IPA) are said as written: no other is offered.
 AS_WRITTEN = ("inline", "ipa")
+
+
+def always_said(prons: list[Pronunciation], language: str) -> list[Pronunciation]:
+    """The pronunciations as ``language`` always says them in running speech
+    (:func:`..language.assimilation.said`: German "Lappen" [lapm̩]), their
+    stand-ins for the aligner and the phones the mouth shows alike; those
+    the user wrote out are kept as written."""
+    phones = [p.aligned or p.phones for p in prons]
+    out = list(prons)
+    for k, (a, s) in enumerate(assimilation.said(phones, language, [p.phones for p in prons])):
+        if a != phones[k] and prons[k].source not in AS_WRITTEN:
+            out[k] = replace(prons[k], phones=s, aligned=a if prons[k].aligned else None)
+    return out
 
 
 def said_as(prons: list[Pronunciation], language: str) -> list[list[str]]:

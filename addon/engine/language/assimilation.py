@@ -10,7 +10,9 @@ where the speaker's lips stay shut.
 The rules are data (``data/assimilation.json``, which a studio may extend).
 Each gives a word another pronunciation, not a replacement: the aligner
 chooses between them by the sound (:func:`variants`), and the mouth follows
-the phones it chose.
+the phones it chose.  A rule marked ``always`` is how the language is said
+whatever the sound (German "-en" after /p b/): the word is said so alone
+(:func:`said`).
 """
 
 from __future__ import annotations
@@ -28,8 +30,10 @@ DATA = Path(__file__).resolve().parent.parent / "data" / "assimilation.json"
 @dataclass(frozen=True)
 class Rule:
     """``match`` (a run of phones) said as ``becomes`` after a phone of
-    ``after`` and before one of ``before`` (either unset: any), in the
-    languages ``languages`` (``*``: every one)."""
+    ``after`` and before one of ``before`` (either unset: any; ``#`` in
+    ``before``: the end of the word), in the languages ``languages``
+    (``*``: every one); with ``always``, in place of ``match`` rather than
+    beside it."""
 
     name: str
     match: tuple[str, ...]
@@ -37,6 +41,7 @@ class Rule:
     after: frozenset[str] | None = None
     before: frozenset[str] | None = None
     languages: frozenset[str] = frozenset({"*"})
+    always: bool = False
 
     def applies(self, language: str) -> bool:
         return "*" in self.languages or language in self.languages
@@ -53,10 +58,13 @@ def rules(path: Path = DATA) -> tuple[Rule, ...]:
             match, becomes = tuple(r["match"]), tuple(r["becomes"])
             if not match or not all(isinstance(p, str) for p in match + becomes):
                 raise ValueError
+            always = r.get("always", False)
+            if not isinstance(always, bool):
+                raise PresetError(str(path), f"{where}.always", "is true or false")
             out.append(Rule(str(r.get("name", where)), match, becomes,
                             frozenset(r["after"]) if "after" in r else None,
                             frozenset(r["before"]) if "before" in r else None,
-                            frozenset(r.get("languages", ["*"]))))
+                            frozenset(r.get("languages", ["*"])), always))
         except (KeyError, TypeError, ValueError):
             raise PresetError(str(path), where, "needs 'match' and 'becomes', lists of phones") from None
     return tuple(out)
@@ -88,7 +96,7 @@ def variants(words: list[list[str]], language: str, shown: list[list[str]] | Non
     word's last."""
     shown = shown or words
     out: list[list[tuple[list[str], list[str]]]] = []
-    active = [r for r in rules() if r.applies(language)]
+    active = [r for r in rules() if r.applies(language) and not r.always]
     for k, (ph, sh) in enumerate(zip(words, shown)):
         following = words[k + 1][0] if k + 1 < len(words) and words[k + 1] else None
         found: list[tuple[list[str], list[str]]] = []
@@ -102,6 +110,24 @@ def variants(words: list[list[str]], language: str, shown: list[list[str]] | Non
     return out
 
 
+def said(words: list[list[str]], language: str, shown: list[list[str]] | None = None
+         ) -> list[tuple[list[str], list[str]]]:
+    """Every word as ``language`` always says it in running speech: each of
+    ``words`` (their phones as the aligner is given them) and its ``shown``
+    phones, rewritten alike by the rules marked ``always``, in order; the
+    next word's first phone counts as what follows a word's last."""
+    shown = shown or words
+    always = [r for r in rules() if r.applies(language) and r.always]
+    out = []
+    for k, (ph, sh) in enumerate(zip(words, shown)):
+        following = words[k + 1][0] if k + 1 < len(words) and words[k + 1] else None
+        a, s = list(ph), list(sh)
+        for rule in always:
+            a, s = _apply(rule, a, s, following)
+        out.append((a, s))
+    return out
+
+
 def _apply(rule: Rule, phones: list[str], shown: list[str], following: str | None) -> tuple[list[str], list[str]]:
     """``phones`` (and ``shown`` alike) with ``rule`` applied wherever it matches."""
     n = len(rule.match)
@@ -109,9 +135,10 @@ def _apply(rule: Rule, phones: list[str], shown: list[str], following: str | Non
     i = 0
     while i + n <= len(a):
         before = a[i - 1] if i > 0 else None
-        after = a[i + n] if i + n < len(a) else following
+        end = i + n == len(a)
+        after = following if end else a[i + n]
         if (tuple(a[i:i + n]) == rule.match and (rule.after is None or before in rule.after)
-                and (rule.before is None or after in rule.before)):
+                and (rule.before is None or after in rule.before or (end and "#" in rule.before))):
             a[i:i + n] = list(rule.becomes)
             s[i:i + n] = list(rule.becomes)
             i += len(rule.becomes)
