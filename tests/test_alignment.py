@@ -282,7 +282,7 @@ def test_a_forced_pass_is_tried_with_the_quick_beam_first_and_again_wide_where_i
     """The one forced pass is made with the narrower ``quick_beam`` first; where that finds no path
     (or its phone pass fails) the clip is passed again with the wide beams, and placed as they place
     it."""
-    from addon.engine.alignment import decoding as align_mod
+    from addon.engine.alignment import core as align_mod
 
     text = (FIXTURES / "bob_map.txt").read_text()
     wide = align_file(FIXTURES / "bob_map.wav", text, settings=AlignSettings(quick_beam=None))

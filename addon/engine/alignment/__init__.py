@@ -10,10 +10,7 @@ speech poorly.  This module therefore:
 
 1. searches with beams far wider than the defaults (1e-200: almost no
    pruning).  A forced alignment holds only the transcript's own words, so
-   the search stays small, and it then succeeds on whole clips of a minute.
-   Each pass is first tried with a narrower beam (1e-80), which finds the
-   same words where it finds a path and costs less; the wide beams are the
-   fallback;
+   the search stays small, and it then succeeds on whole clips of a minute;
 2. aligns a clip in one forced pass.  A clip longer than
    :attr:`AlignSettings.split_above` (10 s) is cut into an even number of
    pieces of about 7 s, aligned two at a time in two processes: a quick

@@ -9,7 +9,6 @@ import re
 import tempfile
 import threading
 from collections.abc import Sequence
-from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -263,16 +262,3 @@ def _whole(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: floa
     if plain[0] == "failed":
         return plain
     return _finish(decoder, pcm, plain, "all")
-
-
-def forced(audio: Audio, prons: list[list[str]], first: int, t0: float, t1: float, settings: AlignSettings,
-           speech: np.ndarray | None = None):
-    """:func:`_whole` with the narrower :attr:`.model.AlignSettings.quick_beam`
-    first, and again with the settings' own beams only where that finds no
-    path or its phone pass fails."""
-    q = settings.quick_beam
-    if q and q > settings.beam:
-        quick = _whole(audio, prons, first, t0, t1, replace(settings, beam=q, pbeam=q, wbeam=q), speech)
-        if quick[0] == "phones":
-            return quick
-    return _whole(audio, prons, first, t0, t1, settings, speech)

@@ -73,8 +73,7 @@ class AlignSettings:
     beam: float = 1e-200
     pbeam: float = 1e-200
     wbeam: float = 1e-200
-    # A forced pass over a clip (or a piece of a long one) is first made with this narrower beam
-    # (all three; None: not), and again
+    # A clip's forced pass is first made with this narrower beam (all three; None: not), and again
     # with the ones above only where it finds no path or its phone pass fails: a word pass costs
     # 14 % less so, and where it succeeds it places the words as the wide one does (the 140 short
     # lines of 150 it aligns; five others fall back).

@@ -7,7 +7,7 @@ less than two 13 s halves, and the pieces keep both cores evenly busy."""
 from __future__ import annotations
 
 from ..audio import Audio
-from .decoding import _decoder, _word_pass, forced
+from .decoding import _decoder, _whole, _word_pass
 from .model import FRAME, AlignSettings
 
 
@@ -88,7 +88,7 @@ def _align_pieces(audio: Audio, prons: list[list[str]], settings: AlignSettings,
         # pauses, so a hesitation cannot wander far from its place
         # (bench/timing.py: the same phone starts with the filler pass;
         # cold_corpus 1.39 s without it, 1.60 s with it).
-        futures = {p: pool.submit(forced, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings)
+        futures = {p: pool.submit(_whole, audio, prons[p[0]:p[1]], p[0], p[2], p[3], settings)
                    for p in sorted(pieces, key=lambda p: p[2] - p[3])}
         results = [(p, futures[p].result()) for p in pieces]
     finally:
