@@ -276,33 +276,3 @@ def test_long_clip_aligned_window_by_window_matches_one_pass(tmp_path, monkeypat
     monkeypatch.setattr(stream, "_walk", walk)
     two = align_file(tmp_path / "long.wav", text, settings=AlignSettings(stream_above=5.0, window=6.0, workers=2))
     assert [(p.phone, p.start, p.end) for p in two.phones] == [(p.phone, p.start, p.end) for p in al.phones]
-
-
-def test_a_forced_pass_is_tried_with_the_quick_beam_first_and_again_wide_where_it_fails(monkeypatch):
-    """The one forced pass is made with the narrower ``quick_beam`` first; where that finds no path
-    (or its phone pass fails) the clip is passed again with the wide beams, and placed as they place
-    it."""
-    from addon.engine.alignment import core as align_mod
-
-    text = (FIXTURES / "bob_map.txt").read_text()
-    wide = align_file(FIXTURES / "bob_map.wav", text, settings=AlignSettings(quick_beam=None))
-    beams = []
-    whole = align_mod._whole
-
-    def spy(audio, prons, first, t0, t1, settings, *rest):
-        beams.append(settings.beam)
-        return whole(audio, prons, first, t0, t1, settings, *rest)
-
-    monkeypatch.setattr(align_mod, "_whole", spy)
-    quick = align_file(FIXTURES / "bob_map.wav", text)
-    assert beams[0] == AlignSettings().quick_beam > AlignSettings().beam
-    assert [(p.phone, p.start, p.end) for p in quick.phones] == [(p.phone, p.start, p.end) for p in wide.phones]
-
-    # A quick pass that finds no path: the wide one places the words.
-    beams.clear()
-    monkeypatch.setattr(align_mod, "_whole", lambda audio, prons, first, t0, t1, settings, *rest: (
-        ("failed", 0, "no path at the quick beam") if settings.beam == settings.quick_beam
-        else spy(audio, prons, first, t0, t1, settings, *rest)))
-    again = align_file(FIXTURES / "bob_map.wav", text)
-    assert beams == [AlignSettings().beam]
-    assert [(p.phone, p.start, p.end) for p in again.phones] == [(p.phone, p.start, p.end) for p in wide.phones]

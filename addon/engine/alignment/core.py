@@ -84,12 +84,7 @@ def align(audio: Audio, words_phones: Sequence[Sequence[str]], pause_hints: Sequ
     if pool is not None:
         done = _align_pieces(audio, prons, settings, pool, place)
     if not done:
-        kind = "failed"
-        if settings.quick_beam and settings.quick_beam > settings.beam:
-            quick = replace(settings, beam=settings.quick_beam, pbeam=settings.quick_beam, wbeam=settings.quick_beam)
-            kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, quick, mask)
-        if kind != "phones":
-            kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings, mask)
+        kind, used, payload = _whole(audio, prons, 0, 0.0, audio.duration, settings, mask)
         if kind == "failed" and audio.duration <= WIDEST_UP_TO:
             # The right path can fall out of even these beams on a hard voice: once more, wider.
             wide = replace(settings, beam=WIDEST_BEAM, pbeam=WIDEST_BEAM, wbeam=WIDEST_BEAM)

@@ -73,11 +73,6 @@ class AlignSettings:
     beam: float = 1e-200
     pbeam: float = 1e-200
     wbeam: float = 1e-200
-    # A clip's forced pass is first made with this narrower beam (all three; None: not), and again
-    # with the ones above only where it finds no path or its phone pass fails: a word pass costs
-    # 14 % less so, and where it succeeds it places the words as the wide one does (the 140 short
-    # lines of 150 it aligns; five others fall back).
-    quick_beam: float | None = 1e-80
     # Chance of a pause between two words.  pocketsphinx's default (0.005)
     # suits dictation decoded with a language model; in dialogue, pauses,
     # breaths and hesitations between words are common.
