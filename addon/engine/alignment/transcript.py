@@ -40,7 +40,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
     settings = settings or AlignSettings()
     words = normalize(text, lexicon.language)
     directions = stage_direction_gaps(text, lexicon.language)
-    prons = always_said(list(lexicon.pronounce(w) for w in words), lexicon.language.code)
+    prons = always_said([lexicon.pronounce(w) for w in words], lexicon.language.code)
     phones = said_as(prons, lexicon.language.code)
 
     def run(clip: Audio, report=None, stand_in: dict[int, list[str]] | None = None) -> Alignment:
