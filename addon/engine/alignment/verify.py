@@ -231,11 +231,11 @@ def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettin
     return []
 
 
-def voice_level(levels: np.ndarray, words: Sequence[AlignedWord]) -> float:
+def voice_level(levels: np.ndarray, al: Alignment) -> float:
     """The level (dBFS) of the line's voice: the 90th percentile of the frame
-    ``levels`` on the spoken ``words`` (of the whole clip if none)."""
+    ``levels`` on the transcript's spoken words (of the whole clip if none)."""
     on = np.zeros(len(levels), bool)
-    for w in words:
+    for w in al.script:
         if w.spoken:
             on[int(w.start / FRAME):int(np.ceil(w.end / FRAME))] = True
     return float(np.percentile(levels[on] if on.any() else levels, 90))
@@ -281,7 +281,7 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
     # Loud in the speech band: a low rumble, a handling thump or a breath's pop as loud as the voice
     # is not speech (the sound before the first word of the MFA clip "acoustic_corpus").
     band = frame_levels(snd, emphasis=True)
-    loud = band[:len(mask)] >= voice_level(band, al.script) - VOICED_DB
+    loud = band[:len(mask)] >= voice_level(band, al) - VOICED_DB
     script = al.script
     said = [k for k, w in enumerate(script) if w.spoken]
     spans = []
