@@ -144,3 +144,33 @@ def unspoken_speech(mask: np.ndarray, words: list[AlignedWord], margin: float = 
         return None
     idx = np.flatnonzero(extra)
     return seconds, float(t[idx[0]]), float(t[idx[-1]] + FRAME)
+
+
+def syllable_peaks(levels: np.ndarray, floor: float, prominence: float, cut_floor: float = np.inf,
+                   smooth: int = 3) -> int:
+    """How many syllables a stretch's frame ``levels`` (dB, one a frame)
+    show: the peaks of the levels (averaged over ``smooth`` frames) at
+    ``floor`` dB or more that stand ``prominence`` dB above the higher of
+    the lowest dips on either side before a higher peak.  A peak at
+    ``cut_floor`` dB or more with no higher one between it and an end of the
+    stretch counts that end as a dip (a syllable cut off by the stretch, as
+    loud as the voice).  Each syllable's vowel is a peak of the speech
+    band's level; a breath, a hum or a held vowel is one."""
+    x = np.asarray(levels, np.float64)
+    if smooth > 1 and len(x) >= smooth:
+        x = np.convolve(np.pad(x, smooth // 2, mode="edge"), np.ones(smooth) / smooth, mode="valid")
+    n, count = len(x), 0
+    for i in range(n):
+        if x[i] < floor or (i > 0 and x[i] <= x[i - 1]) or (i < n - 1 and x[i] < x[i + 1]):
+            continue
+        lo = hi = i
+        while lo > 0 and x[lo - 1] <= x[i]:
+            lo -= 1
+        while hi < n - 1 and x[hi + 1] <= x[i]:
+            hi += 1
+        cut = x[i] >= cut_floor
+        left = -np.inf if lo == 0 and cut else x[lo:i + 1].min()
+        right = -np.inf if hi == n - 1 and cut else x[i:hi + 1].min()
+        if x[i] - max(left, right) >= prominence:
+            count += 1
+    return count
