@@ -30,8 +30,8 @@ from ..language.assimilation import held_alike
 from .boundaries import boundary_class
 from .edges import stretched
 from .model import FRAME, Alignment, Variants
-from .speech import frame_levels, runs, speech_mask
-from .verify import WORD_MARGIN, covered_by
+from .speech import covered_by, frame_levels, runs, speech_mask
+from .verify import WORD_MARGIN
 
 #: Speech (s) the first alignment leaves off its words for the line to be aligned again, and how much
 #: more of it the second alignment must lay its words on to be kept.

@@ -217,20 +217,14 @@ def with_hesitations(audio: Audio, mask: np.ndarray, words: list[AlignedWord], p
     """``words`` and ``phones`` (recognised) with an "uh" (AH) on every
     stretch of loud speech no word was heard in (:data:`HESITATION`), in
     time order; a phone's ``word_index`` counts in the returned words."""
-    from .speech import frame_levels, runs
+    from .speech import covered_by, frame_levels, runs, voice_level
 
     n = len(mask)
     band = np.full(n, -np.inf)
     levels = frame_levels(audio, emphasis=True)[:n]
     band[:len(levels)] = levels
-    on = np.zeros(n, bool)
-    near = np.zeros(n, bool)
-    m = int(round(HESITATION_MARGIN / FRAME))
-    for w in words:
-        a, b = int(w.start / FRAME), int(np.ceil(w.end / FRAME))
-        on[a:b] = True
-        near[max(0, a - m):b + m] = True
-    loud = band >= float(np.percentile(band[on] if on.any() else band, 90)) - HESITATION_DB
+    near = covered_by(words, n, HESITATION_MARGIN)
+    loud = band >= voice_level(band, covered_by(words, n)) - HESITATION_DB
     found = [AlignedWord("uh", i * FRAME, j * FRAME, ["AH"], "recognized", True, recognized=True)
              for i, j in runs(mask & loud & ~near).tolist() if (j - i) * FRAME >= HESITATION]
     if not found:

@@ -5,6 +5,7 @@ inside the speech."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -174,3 +175,21 @@ def syllable_peaks(levels: np.ndarray, floor: float, prominence: float, cut_floo
         if x[i] - max(left, right) >= prominence:
             count += 1
     return count
+
+
+def covered_by(words: Sequence[AlignedWord], frames: int, margin: float = 0.0) -> np.ndarray:
+    """One flag per :data:`.model.FRAME` (``frames`` of them): whether it lies
+    within ``margin`` s of a spoken word of ``words``."""
+    covered = np.zeros(frames, bool)
+    for w in words:
+        if w.spoken:
+            covered[max(0, int((w.start - margin) / FRAME)):int(np.ceil((w.end + margin) / FRAME))] = True
+    return covered
+
+
+def voice_level(levels: np.ndarray, on: np.ndarray) -> float:
+    """The level (dB) of the voice: the 90th percentile of the frame
+    ``levels`` on the frames flagged ``on`` (of them all if none is)."""
+    n = min(len(levels), len(on))
+    part = levels[:n][np.asarray(on[:n], bool)]
+    return float(np.percentile(part if len(part) else levels, 90))

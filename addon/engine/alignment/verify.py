@@ -33,7 +33,7 @@ from .decoding import _decoder
 from .fillers import base_token
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment, at_shortest, median_fit
 from .recognize import recognize_spans
-from .speech import frame_levels, runs, speech_mask, syllable_peaks
+from .speech import covered_by, frame_levels, runs, speech_mask, syllable_peaks, voice_level
 
 #: A word lying on less speech than this share of its frames is a suspect.
 SUSPECT_SPEECH = 0.5
@@ -240,26 +240,6 @@ def _unspoken(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettin
     return []
 
 
-def voice_level(levels: np.ndarray, al: Alignment) -> float:
-    """The level (dBFS) of the line's voice: the 90th percentile of the frame
-    ``levels`` on the transcript's spoken words (of the whole clip if none)."""
-    on = np.zeros(len(levels), bool)
-    for w in al.script:
-        if w.spoken:
-            on[int(w.start / FRAME):int(np.ceil(w.end / FRAME))] = True
-    return float(np.percentile(levels[on] if on.any() else levels, 90))
-
-
-def covered_by(words: Sequence[AlignedWord], frames: int, margin: float = WORD_MARGIN) -> np.ndarray:
-    """One flag per :data:`.model.FRAME` (``frames`` of them): whether it lies
-    within ``margin`` s of a spoken word of ``words``."""
-    covered = np.zeros(frames, bool)
-    for w in words:
-        if w.spoken:
-            covered[max(0, int((w.start - margin) / FRAME)):int(np.ceil((w.end + margin) / FRAME))] = True
-    return covered
-
-
 def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSettings,
                 left_out: Sequence[tuple[float, float]] = (), directions: Collection[int] = ()
                 ) -> list[tuple[float, float]]:
@@ -267,7 +247,7 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
     of such speech less than :data:`JOIN_GAP` apart and between the same two
     words are one stretch (recognised together, in context).  A stretch
     holds at least :data:`MIN_UNSCRIPTED` s of speech, :data:`MIN_VOICED` s of
-    it within :data:`VOICED_DB` of the line's voice (:func:`voice_level`): a
+    it within :data:`VOICED_DB` of the line's voice (:func:`.speech.voice_level` on its spoken words): a
     breath, a lip smack, the decay of the last word or room noise is
     quieter, and so is a low rumble or thump in the speech band (the
     levels are :func:`.speech.frame_levels` with ``emphasis``).  Stretches
@@ -276,7 +256,7 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
     are the sound it stands for.  The stretches ``left_out`` (speech known to
     be cut from the transcript) are uncovered up to the words beside them,
     without :data:`WORD_MARGIN`."""
-    covered = covered_by(al.words, len(mask))
+    covered = covered_by(al.words, len(mask), WORD_MARGIN)
     for start, end in left_out:
         covered[int(round(start / FRAME)):int(round(end / FRAME))] = False
     joined: list[list[int]] = []
@@ -290,7 +270,7 @@ def _unscripted(snd: Audio, al: Alignment, mask: np.ndarray, settings: AlignSett
     # Loud in the speech band: a low rumble, a handling thump or a breath's pop as loud as the voice
     # is not speech (the sound before the first word of the MFA clip "acoustic_corpus").
     band = frame_levels(snd, emphasis=True)
-    loud = band[:len(mask)] >= voice_level(band, al) - VOICED_DB
+    loud = band[:len(mask)] >= voice_level(band, covered_by(al.script, len(band))) - VOICED_DB
     script = al.script
     said = [k for k, w in enumerate(script) if w.spoken]
     spans = []
@@ -348,8 +328,7 @@ def may_hold_words(snd: Audio, spans: Sequence[tuple[float, float]], mask: np.nd
     band = frame_levels(snd, emphasis=True)
     if mask is None:
         mask, _ = speech_mask(frame_levels(snd), snd)
-    on = band[:len(mask)][mask[:len(band)]]
-    voice = float(np.percentile(on if len(on) else band, 90))
+    voice = voice_level(band, mask)
     return [syllable_peaks(band[int(t0 / FRAME):int(np.ceil(t1 / FRAME))], voice - VOICED_DB, SYLLABLE_DB,
                            voice - CUT_SYLLABLE_DB) >= MIN_HEARD_WORDS
             for t0, t1 in spans]
