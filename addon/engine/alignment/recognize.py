@@ -11,7 +11,9 @@ there are several.
 
 Recognition makes mistakes a transcript would not (a similar-sounding word,
 a short word dropped), but the mouth shapes follow the sounds, which the
-recogniser gets mostly right.  Recognised words carry ``recognized = True``.
+recogniser gets mostly right; where its best guess misses a /p b m/ that the
+other words it weighed close the lips for, they close (:mod:`.unsure`).
+Recognised words carry ``recognized = True``.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from .estimate import _clean, _estimate
 from .model import FRAME, AlignedPhone, AlignedWord, AlignSettings, Alignment
 from .parallel import _pool
 from .speech import speech_or_refuse
+from . import unsure
 
 #: The recogniser's search.  Every frame is scored (``ds`` 1): scoring every
 #: second one took 0.12 x real time against 0.15 on bench/offscript.py's
@@ -106,12 +109,14 @@ def _recognize_chunk(pcm: bytes, check: bool = False) -> list[tuple[str, list[tu
     segs = [(sg.word, sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if _is_word(sg.word)]
     if not segs:
         return []
+    # The other words the recogniser weighed, for the lips it was unsure of (not for the checks).
+    weight = None if check else unsure.labial_weight(decoder, len(pcm) // 320 + 1)
     try:
         words = [(name, phones) for name, phones in phone_alignment(decoder, pcm) if _is_word(name)]
     except RuntimeError:
         words = []
     if [w[0] for w in words] == [s[0] for s in segs]:
-        return [(_VARIANT.sub("", name), phones, False) for name, phones in words]
+        return unsure.with_closures([(_VARIANT.sub("", name), phones, False) for name, phones in words], weight)
     # The phone pass failed: the word times stay, phones by estimate.
     out = []
     for name, a, b in segs:
@@ -121,7 +126,7 @@ def _recognize_chunk(pcm: bytes, check: bool = False) -> list[tuple[str, list[tu
         ph = _estimate([pron], [(a * FRAME, b * FRAME)])[0]
         out.append((_VARIANT.sub("", name), [(p, int(round(s / FRAME)), int(round(e / FRAME))) for p, s, e in ph],
                     True))
-    return out
+    return unsure.with_closures(out, weight)
 
 
 _SHARED: dict = {}
