@@ -148,7 +148,7 @@ def unspoken_speech(mask: np.ndarray, words: list[AlignedWord], margin: float = 
 
 
 def syllable_peaks(levels: np.ndarray, floor: float, prominence: float, cut_floor: float = np.inf,
-                   smooth: int = 3) -> int:
+                   smooth: int = 3, most: int | None = None) -> int:
     """How many syllables a stretch's frame ``levels`` (dB, one a frame)
     show: the peaks of the levels (averaged over ``smooth`` frames) at
     ``floor`` dB or more that stand ``prominence`` dB above the higher of
@@ -156,24 +156,30 @@ def syllable_peaks(levels: np.ndarray, floor: float, prominence: float, cut_floo
     ``cut_floor`` dB or more with no higher one between it and an end of the
     stretch counts that end as a dip (a syllable cut off by the stretch, as
     loud as the voice).  Each syllable's vowel is a peak of the speech
-    band's level; a breath, a hum or a held vowel is one."""
+    band's level; a breath, a hum or a held vowel is one.  Counting stops at
+    ``most``."""
     x = np.asarray(levels, np.float64)
     if smooth > 1 and len(x) >= smooth:
         x = np.convolve(np.pad(x, smooth // 2, mode="edge"), np.ones(smooth) / smooth, mode="valid")
-    n, count = len(x), 0
-    for i in range(n):
-        if x[i] < floor or (i > 0 and x[i] <= x[i - 1]) or (i < n - 1 and x[i] < x[i + 1]):
-            continue
-        lo = hi = i
-        while lo > 0 and x[lo - 1] <= x[i]:
-            lo -= 1
-        while hi < n - 1 and x[hi + 1] <= x[i]:
-            hi += 1
+    n = len(x)
+    if n == 0:
+        return 0
+    # Peaks: above the frame before, not below the frame after.
+    rise = np.concatenate(([True], x[1:] > x[:-1]))
+    keep = np.concatenate((x[:-1] >= x[1:], [True]))
+    count = 0
+    for i in np.flatnonzero(rise & keep & (x >= floor)).tolist():
+        higher = np.flatnonzero(x[:i] > x[i])
+        lo = int(higher[-1]) + 1 if len(higher) else 0         # back to the last higher frame
+        higher = np.flatnonzero(x[i + 1:] > x[i])
+        hi = i + int(higher[0]) if len(higher) else n - 1      # on to the next one
         cut = x[i] >= cut_floor
-        left = -np.inf if lo == 0 and cut else x[lo:i + 1].min()
+        left = -np.inf if lo == 0 and cut else x[lo:i + 1].min()      # no higher peak before it: the end is a dip
         right = -np.inf if hi == n - 1 and cut else x[i:hi + 1].min()
         if x[i] - max(left, right) >= prominence:
             count += 1
+            if most is not None and count >= most:
+                break
     return count
 
 

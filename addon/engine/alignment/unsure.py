@@ -22,6 +22,8 @@ import tempfile
 
 import numpy as np
 
+from .speech import runs
+
 #: Phones that close the lips.
 LABIAL = ("P", "B", "M")
 #: The lattice's acoustic scores are scaled by this before they are weighed (unscaled, the best
@@ -118,8 +120,6 @@ def with_closures(words: list, weight: np.ndarray | None) -> list:
     the words have none near (:data:`CLOSED`, :data:`SHORTEST`, :data:`NEAR`)."""
     if weight is None or not words:
         return words
-    from .speech import runs
-
     have = np.zeros(len(weight), bool)
     for _, phones, _ in words:
         for p, a, b, *_ in phones:

@@ -330,7 +330,7 @@ def may_hold_words(snd: Audio, spans: Sequence[tuple[float, float]], mask: np.nd
         mask, _ = speech_mask(frame_levels(snd), snd)
     voice = voice_level(band, mask)
     return [syllable_peaks(band[int(t0 / FRAME):int(np.ceil(t1 / FRAME))], voice - VOICED_DB, SYLLABLE_DB,
-                           voice - CUT_SYLLABLE_DB) >= MIN_HEARD_WORDS
+                           voice - CUT_SYLLABLE_DB, most=MIN_HEARD_WORDS) >= MIN_HEARD_WORDS
             for t0, t1 in spans]
 
 
