@@ -67,7 +67,7 @@ def test_words_are_listened_for_in_speech_not_in_a_held_vowel(monkeypatch):
 
     asked = []
 
-    def recognize_spans(audio, spans, settings=None, progress=None, check=False):
+    def recognize_spans(audio, spans, settings=None, progress=None, check=False, fewest=0):
         asked.extend(spans)
         return [], []
 
@@ -79,3 +79,32 @@ def test_words_are_listened_for_in_speech_not_in_a_held_vowel(monkeypatch):
     asked.clear()
     assert verify.words_heard(snd, [speech, vowel], None) == [False, False]
     assert asked == [speech, vowel]
+
+
+def test_a_stretch_with_too_few_words_heard_has_no_phones_aligned(monkeypatch):
+    """The checks count the words heard in a stretch: where fewer than they
+    need are heard, the recogniser's phone pass is skipped, and nothing is
+    returned (a stretch of one word is not heard either way)."""
+    from addon.engine.alignment import recognize
+
+    line = audio_mod.load(SAMPLE / "hello.wav")
+    span = (0.0, line.duration)
+    passes = []
+    real = recognize.phone_alignment
+
+    def phone_alignment(decoder, pcm):
+        passes.append(len(pcm))
+        return real(decoder, pcm)
+
+    monkeypatch.setattr(recognize, "phone_alignment", phone_alignment)
+    words, phones = recognize.recognize_spans(line, [span], check=True)
+    assert len(words) >= verify.MIN_HEARD_WORDS and phones and len(passes) == 1
+    assert verify._heard(words, *span)
+    # Asked for more words than are heard: none returned, no phone pass.
+    passes.clear()
+    assert recognize.recognize_spans(line, [span], check=True, fewest=len(words) + 1) == ([], [])
+    assert passes == []
+    # Asked for as many as are heard: the same words and phones as without asking.
+    again = recognize.recognize_spans(line, [span], check=True, fewest=len(words))
+    assert [(w.text, w.start, w.end) for w in again[0]] == [(w.text, w.start, w.end) for w in words]
+    assert len(passes) == 1

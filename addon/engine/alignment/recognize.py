@@ -90,10 +90,12 @@ def _is_word(name: str) -> bool:
 _RESET = (np.random.default_rng(0).normal(0.0, 30.0, 1600)).astype("<i2").tobytes()
 
 
-def _recognize_chunk(pcm: bytes, check: bool = False) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
+def _recognize_chunk(pcm: bytes, check: bool = False, fewest: int = 0
+                     ) -> list[tuple[str, list[tuple[str, int, int]], bool]]:
     """The words of one chunk: (text, [(phone, first frame, end frame)],
-    phones estimated).  Frames count from the chunk's start; what came
-    before it does not count (:data:`_RESET`)."""
+    phones estimated); none where fewer than ``fewest`` words are heard
+    (their phones are then not aligned).  Frames count from the chunk's
+    start; what came before it does not count (:data:`_RESET`)."""
     decoder, search = _decoder(check)
     try:
         decoder.activate_search(search)  # the alignment pass of the chunk before left its own search active
@@ -107,7 +109,7 @@ def _recognize_chunk(pcm: bytes, check: bool = False) -> list[tuple[str, list[tu
     except RuntimeError:
         return []
     segs = [(sg.word, sg.start_frame, sg.end_frame + 1) for sg in (decoder.seg() or []) if _is_word(sg.word)]
-    if not segs:
+    if not segs or len(segs) < fewest:
         return []
     # The other words the recogniser weighed, for the lips it was unsure of (not for the checks).
     weight = None if check else unsure.labial_weight(decoder, len(pcm) // 320 + 1)
@@ -132,17 +134,19 @@ def _recognize_chunk(pcm: bytes, check: bool = False) -> list[tuple[str, list[tu
 _SHARED: dict = {}
 
 
-def _chunk_shared(key: int, t0: float, t1: float, check: bool):
-    return _recognize_chunk(_SHARED[key].pcm16(t0, t1, floor=False), check)
+def _chunk_shared(key: int, t0: float, t1: float, check: bool, fewest: int = 0):
+    return _recognize_chunk(_SHARED[key].pcm16(t0, t1, floor=False), check, fewest)
 
 
 def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: AlignSettings | None = None,
-                    progress: Callable[[float], None] | None = None, check: bool = False
+                    progress: Callable[[float], None] | None = None, check: bool = False, fewest: int = 0
                     ) -> tuple[list[AlignedWord], list[AlignedPhone]]:
     """Recognise the speech of each (start, end) span of ``audio`` (s), with
     the checks' search when ``check`` (:data:`CHECK_OPTIONS`).  Returns the
     words (``recognized``) and their phones, in time order; a phone's
-    ``word_index`` counts in the returned words."""
+    ``word_index`` counts in the returned words.  ``fewest``: a span in which
+    fewer words are heard returns none, and its phones are not aligned (a
+    caller that counts words heard has no use for them)."""
     settings = settings or AlignSettings()
     spans = [(a, b) for a, b in spans if b - a >= 0.05]
     if not spans:
@@ -153,7 +157,7 @@ def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: Al
     _SHARED[key] = audio
     try:
         if pool is not None:
-            futures = [pool.submit(_chunk_shared, key, a, b, check) for a, b in spans]
+            futures = [pool.submit(_chunk_shared, key, a, b, check, fewest) for a, b in spans]
             results = []
             for k, f in enumerate(futures):
                 results.append(f.result())
@@ -162,7 +166,7 @@ def recognize_spans(audio: Audio, spans: list[tuple[float, float]], settings: Al
         else:
             results = []
             for k, (a, b) in enumerate(spans):
-                results.append(_chunk_shared(key, a, b, check))
+                results.append(_chunk_shared(key, a, b, check, fewest))
                 if progress:
                     progress((k + 1) / len(spans))
     finally:

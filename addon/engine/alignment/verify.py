@@ -340,7 +340,7 @@ def words_heard(snd: Audio, spans: list[tuple[float, float]], settings: AlignSet
     (:func:`may_hold_words`) is not recognised."""
     worth = may_hold_words(snd, spans)
     listen = [span for span, ok in zip(spans, worth) if ok]
-    found, _ = recognize_spans(snd, listen, settings, check=True) if listen else ([], [])
+    found, _ = recognize_spans(snd, listen, settings, check=True, fewest=MIN_HEARD_WORDS) if listen else ([], [])
     return [_heard(found, t0, t1) for t0, t1 in spans]
 
 
@@ -388,7 +388,7 @@ def verify(snd: Audio, al: Alignment, settings: AlignSettings | None = None, eng
         # The warning that speech lacks transcript words is replaced by the unscripted stretches below.
     spans = _unscripted(snd, al, mask, settings, left_out, directions)
     spans = [span for span, ok in zip(spans, may_hold_words(snd, spans, mask)) if ok]
-    found, phones = recognize_spans(snd, spans, settings, check=True) if spans else ([], [])
+    found, phones = recognize_spans(snd, spans, settings, check=True, fewest=MIN_HEARD_WORDS) if spans else ([], [])
     edge = _edges_of_spoken(found, spans, al.words)
     heard = [w for k, w in enumerate(found) if k not in edge]
     spans = [(t0, t1) for t0, t1 in spans if _heard(heard, t0, t1)]
