@@ -105,3 +105,26 @@ def test_band_levels_sum_each_band_s_bins():
     got = refine.band_changes(snd, doc)
     assert np.allclose(got[s:s + len(expected)], expected, atol=1e-6)
     assert np.abs(got[s:-s]).max() > 0.1
+
+
+def test_lines_read_through_espeak_or_ipa_take_the_other_languages_model(monkeypatch):
+    english, other = refine.model(refine.MODEL_FILE), refine.model(refine.OTHER_LANGUAGES_FILE)
+    assert other["weights"].shape == english["weights"].shape and not np.allclose(other["weights"], english["weights"])
+    assert refine.model_for(["cmudict", "cmudict", "derived"]) is english
+    assert refine.model_for(["espeak", "espeak", "cmudict"]) is other
+    assert refine.model_for(["ipa"]) is other
+    assert refine.model_for(["ipa", "cmudict"]) is english       # half or less: the English one
+    assert refine.model_for([]) is english
+    # The aligner hands the chosen model to its last step.
+    from addon.engine.alignment import transcript
+    from addon.engine.pipeline import analyze
+    from addon.engine.settings import LineSettings
+    from conftest import SAMPLE
+
+    given = []
+    real = transcript.refine_alignment
+    monkeypatch.setattr(transcript, "refine_alignment",
+                        lambda audio, al, doc=None: given.append(doc) or real(audio, al, doc))
+    analyze(str(SAMPLE / "hello.wav"), "hello my name is bob")
+    analyze(str(SAMPLE / "hello.wav"), "hallo mein name ist bob", LineSettings.of(language="de"))
+    assert len(given) == 2 and given[0] is english and given[1] is other

@@ -24,11 +24,13 @@ boundary after a pause moves the phone's start alone; the start of /p b m/
 recognised words and words not spoken are left as they are.  The model was
 fitted on English read speech (the development speakers of TIMIT,
 ``bench/boundary_model.py``, which also prints its cross-validated figures
-and refits it); it carries over to other languages, whose words are aligned
-by the English phones of the nearest mouth: on acted emotional German
-(EmoDB, ``bench/emodb.py``) and on the words of 37 languages read from IPA
-(VoxAngeles, ``bench/languages.py``), hand-labelled, more phone starts fall
-within 20 ms of the labels.
+and refits it).  A line whose words are mostly read through eSpeak NG or IPA
+(other languages, aligned by the English phones of the nearest mouth) takes
+a model of the same form fitted on hand-labelled words of 37 languages
+(VoxAngeles), acted emotional German (EmoDB) and those TIMIT speakers
+(``data/boundary_model_other_languages.json``, :func:`model_for`;
+``bench/boundary_model_ipa.py`` prints its figures with one language family
+or one EmoDB actor left out, and refits it).
 
 :func:`refine_alignment` is the transcript aligner's last step
 (:func:`.transcript.align_audio`), on the alignment the checks of the take
@@ -49,6 +51,11 @@ from .boundaries import boundary_class
 from .model import Alignment
 
 MODEL_FILE = Path(__file__).resolve().parent.parent / "data" / "boundary_model.json"
+#: The model of lines whose words are read through eSpeak NG or IPA (other languages), the same
+#: form fitted on hand-labelled words of 37 languages, acted German and TIMIT's development speakers.
+OTHER_LANGUAGES_FILE = MODEL_FILE.with_name("boundary_model_other_languages.json")
+#: Pronunciation sources of words aligned through stand-in phones (:class:`..language.Pronunciation`).
+STAND_IN_SOURCES = ("ipa", "espeak")
 #: The fields a model file must hold.
 FIELDS = ("classes", "bands", "hop", "window", "step", "offsets", "max_shift", "min_phone", "weights")
 
@@ -79,6 +86,15 @@ def model(path: str | Path = MODEL_FILE) -> dict:
     except OSError:
         raise LipSyncError(f"{p}: the boundary model is missing") from None
     return _load(str(p), stamp)
+
+
+def model_for(sources: list[str]) -> dict:
+    """The model of a line whose words' pronunciations come from ``sources``
+    (:attr:`..language.Pronunciation.source`): :data:`OTHER_LANGUAGES_FILE`
+    where most of them are read through eSpeak NG or IPA, else the English
+    one (:data:`MODEL_FILE`)."""
+    other = sum(s in STAND_IN_SOURCES for s in sources)
+    return model(OTHER_LANGUAGES_FILE if sources and 2 * other > len(sources) else MODEL_FILE)
 
 
 def n_features(doc: dict) -> int:

@@ -24,7 +24,7 @@ from .core import align, check_transcript_matches
 from .edges import CUT_ROUNDS, edges, heard_in, left_out, said_at_the_end
 from .model import AlignSettings, Alignment, Variants
 from .held import said_otherwise
-from .refine import refine_alignment
+from .refine import model_for, refine_alignment
 from . import tempo
 from .room import lay_out, room
 from .verify import verify
@@ -116,7 +116,7 @@ def align_audio(snd: Audio, text: str, lexicon: Lexicon | None = None,
             # Words longer than the speech they stand for (:mod:`.room`): laid on that speech alone.
             al = again(clip, stand_in, cut) or al
     check_transcript_matches(al, judge_fit=english)
-    refine_alignment(snd, al)
+    refine_alignment(snd, al, model_for([p.source for p in prons]))
     _show(al, prons, phones)
     skipped = skipped_words(text, lexicon.language)
     if skipped:
