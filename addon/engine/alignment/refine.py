@@ -11,10 +11,11 @@ hand-labelled speech (Stolcke et al. 2014).
 
 * the classes of the phones on either side (:func:`.boundaries.boundary_class`);
 * the change of the level (dB) of five frequency bands (the file's
-  ``bands``) over 20 ms (20 ms windows every 5 ms), at seven times from
-  30 ms before the boundary to 30 ms after it;
-* that change again for each class of the phone after the boundary (the
-  same rise means a vowel's start, a fricative's or a stop's release);
+  ``bands``) over each of the file's ``steps`` either side (20 ms windows
+  every 5 ms), at seven times from 30 ms before the boundary to 30 ms after;
+* those changes again for each class of the phone after the boundary (the
+  same rise means a vowel's start, a fricative's or a stop's release) and,
+  where the file's ``by_class`` says so, for each class of the phone before it;
 
 a linear model (ridge regression) whose weights are in
 ``data/boundary_model.json``, and moves the boundary by the error predicted,
@@ -71,6 +72,9 @@ def _load(path: str, stamp: float) -> dict:      # ``stamp``: the file's mtime, 
     if missing:
         raise LipSyncError(f"{path}: the boundary model lacks {', '.join(missing)}")
     doc = dict(doc)
+    if "after" not in by_class(doc) or not set(by_class(doc)) <= {"after", "before"}:
+        raise LipSyncError(f"{path}: the boundary model's by_class must hold \"after\" and may hold \"before\" "
+                           f"(it holds {by_class(doc)})")
     doc["weights"] = np.asarray(doc["weights"], float)
     if doc["weights"].shape != (n_features(doc),):
         raise LipSyncError(f"{path}: the boundary model has {doc['weights'].size} weights where its "
@@ -97,9 +101,21 @@ def model_for(sources: list[str]) -> dict:
     return model(OTHER_LANGUAGES_FILE if sources and 2 * other > len(sources) else MODEL_FILE)
 
 
+def steps(doc: dict) -> list[float]:
+    """The spans (s, either side of a frame) the model reads each band's change over: the file's
+    ``steps``, or its one ``step``."""
+    return [float(s) for s in doc.get("steps", [doc["step"]])]
+
+
+def by_class(doc: dict) -> list[str]:
+    """Which phone's class the changes are read for: ``after`` (the phone the boundary starts) and,
+    if the file says so, ``before`` (the one it ends)."""
+    return list(doc.get("by_class", ["after"]))
+
+
 def n_features(doc: dict) -> int:
-    c, a = len(doc["classes"]), len(doc["bands"]) * len(doc["offsets"])
-    return 1 + 2 * c + a + c * a
+    c, a = len(doc["classes"]), len(doc["bands"]) * len(doc["offsets"]) * len(steps(doc))
+    return 1 + 2 * c + a + len(by_class(doc)) * c * a
 
 
 #: Frames transformed at a time: a long clip's samples and spectra are read a block at a time, never
@@ -109,7 +125,8 @@ BLOCK = 2000
 
 def band_changes(audio: Audio, doc: dict) -> np.ndarray:
     """Per ``hop`` (frame k centred at k * hop s), the change (dB) of each
-    band's level from ``step`` s before to ``step`` s after."""
+    band's level from each step (:func:`steps`) before to that step after:
+    one column per band for the first step, then for the next."""
     rate, total = audio.rate, len(audio.samples)
     n, h = int(round(doc["window"] * rate)), int(round(doc["hop"] * rate))
     count = -(-(total + n // 2 + 1) // h)            # frames whose window starts within the clip (or its padding)
@@ -129,11 +146,14 @@ def band_changes(audio: Audio, doc: dict) -> np.ndarray:
         f = np.fft.rfft(np.lib.stride_tricks.sliding_window_view(seg, n)[::h] * window, axis=1)
         power = f.real ** 2 + f.imag ** 2
         levels[k0:k1] = 10 * np.log10(np.stack([power[:, i:j].sum(axis=1) for i, j in bands], 1) + 1e-4)
-    s = int(round(doc["step"] / doc["hop"]))
-    change = np.zeros_like(levels)
-    if len(levels) > 2 * s:
-        change[s:-s] = levels[2 * s:] - levels[:-2 * s]
-    return change
+    out = []
+    for step in steps(doc):
+        s = int(round(step / doc["hop"]))
+        change = np.zeros_like(levels)
+        if len(levels) > 2 * s:
+            change[s:-s] = levels[2 * s:] - levels[:-2 * s]
+        out.append(change)
+    return np.concatenate(out, axis=1)
 
 
 def features(audio: Audio, phones: list[tuple[str, float, float]], doc: dict,
@@ -145,6 +165,7 @@ def features(audio: Audio, phones: list[tuple[str, float, float]], doc: dict,
     c = len(classes)
     change = band_changes(audio, doc) if change is None else change
     offsets = np.asarray(doc["offsets"], int)
+    before = "before" in by_class(doc)
     rows = np.zeros((len(phones), n_features(doc)))
     for i in range(1, len(phones)):
         k = int(round(phones[i][1] / doc["hop"]))
@@ -155,7 +176,8 @@ def features(audio: Audio, phones: list[tuple[str, float, float]], doc: dict,
             onehot[classes.index(right)] = 1.0
         if left in classes:
             onehot[c + classes.index(left)] = 1.0
-        rows[i] = np.concatenate([[1.0], onehot, acoustic, np.outer(onehot[:c], acoustic).ravel()])
+        rows[i] = np.concatenate([[1.0], onehot, acoustic, np.outer(onehot[:c], acoustic).ravel()]
+                                 + ([np.outer(onehot[c:], acoustic).ravel()] if before else []))
     return rows
 
 
