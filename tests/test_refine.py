@@ -162,3 +162,30 @@ def test_changes_over_each_step_and_for_the_class_before_are_features_the_file_a
     before = x2[1 + 2 * c + 2 * c * a + 2 * a:].reshape(c, 2 * a)
     assert np.allclose(after[vowel], acoustic2.ravel()) and not after[fric].any()
     assert np.allclose(before[fric], acoustic2.ravel()) and not before[vowel].any()
+
+
+def test_a_word_fitting_its_sound_poorly_and_the_start_after_it_are_left():
+    """A word that fits its sound far worse than the line's median (not said as written) keeps its
+    phones, and so does the start of the word after it: the model's corrections assume the phones
+    on either side of a boundary are the ones said."""
+    from addon.engine.alignment.model import AlignedPhone, AlignedWord, Alignment
+    from addon.engine.alignment.verify import POOR_FIT
+
+    def line(fit_of_middle):
+        words = [AlignedWord("so", 0.3, 0.5, ["S"], fit=-10.0), AlignedWord("ah", 0.5, 0.7, ["AA"], fit=fit_of_middle),
+                 AlignedWord("so", 0.7, 0.9, ["S"], fit=-12.0), AlignedWord("ah", 0.9, 1.1, ["AA"], fit=-11.0)]
+        phones = [AlignedPhone(w.phones[0], w.start, w.end, k) for k, w in enumerate(words)]
+        return Alignment(words, phones, 1.2)
+
+    _, _, left = refine.by_word(line(-11.0 - POOR_FIT - 1))
+    assert left == [False, True, False, False]
+    _, _, left = refine.by_word(line(-11.0 - POOR_FIT + 1))
+    assert left == [False, False, False, False]
+    audio = fricative_then_vowel(vowel_at=0.52)
+    doc = dict(refine.model())
+    doc["weights"] = np.zeros_like(doc["weights"])
+    doc["weights"][0] = -1.0                            # every boundary "early"
+    al = line(-11.0 - POOR_FIT - 1)
+    refine.refine_alignment(audio, al, doc)
+    assert [p.start for p in al.phones[:3]] == [0.3, 0.5, 0.7]        # the misfit word and the start after it
+    assert al.phones[3].start == pytest.approx(0.9 + doc["max_shift"])

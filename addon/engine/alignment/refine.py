@@ -22,7 +22,8 @@ a linear model (ridge regression) whose weights are in
 at most ``max_shift`` s either way.  Every phone keeps ``min_phone`` s; a
 boundary after a pause moves the phone's start alone; the start of /p b m/
 (``leave``: where the lips close) stays.  Words placed by estimate,
-recognised words and words not spoken are left as they are.  The model was
+recognised words, words not spoken and words that fit their sound poorly (a
+word the actor did not say as written) are left as they are.  The model was
 fitted on English read speech (the development speakers of TIMIT,
 ``bench/boundary_model.py``, which also prints its cross-validated figures
 and refits it).  A line whose words are mostly read through eSpeak NG or IPA
@@ -49,7 +50,8 @@ import numpy as np
 from ..audio import Audio
 from ..errors import LipSyncError
 from .boundaries import boundary_class
-from .model import Alignment
+from .model import Alignment, median_fit
+from .verify import POOR_FIT
 
 MODEL_FILE = Path(__file__).resolve().parent.parent / "data" / "boundary_model.json"
 #: The model of lines whose words are read through eSpeak NG or IPA (other languages), the same
@@ -229,12 +231,18 @@ def refine_alignment(audio: Audio, al: Alignment, doc: dict | None = None) -> No
 def by_word(al: Alignment) -> tuple[list, list, list[bool]]:
     """The phones of ``al`` per word as :func:`refine_boundaries` takes them
     ([(phone, start, end)]), the phones themselves, and the words it leaves
-    as they are (placed by estimate, recognised, not spoken)."""
+    as they are: placed by estimate, recognised, not spoken, or fitting their
+    sound :data:`.verify.POOR_FIT` worse than the line's median word (a word
+    the actor did not say as written: the model's corrections assume the
+    phones on either side of a boundary are the ones said, and would move the
+    words beside a wrong word by its phones)."""
     result: list[list[tuple[str, float, float]]] = [[] for _ in al.words]
     phones: list[list] = [[] for _ in al.words]
     for p in al.phones:
         result[p.word_index].append((p.phone, p.start, p.end))
         phones[p.word_index].append(p)
+    median = median_fit(al.words)
     left = [w.estimated or w.recognized or not w.spoken or any(p.estimated for p in phones[k])
+            or (median is not None and w.fit is not None and median - w.fit >= POOR_FIT)
             for k, w in enumerate(al.words)]
     return result, phones, left
