@@ -182,19 +182,24 @@ def main() -> None:
           "training side and TIMIT's development speakers; figures: within 20 ms, within 40 ms")
     families = sorted({ln["family"] for ln in lines})
     actors = sorted({t["actor"] for t in takes})
-    everything = (lambda x: True, lambda x: True)
-    nothing = (lambda x: False, lambda x: False)
+
+    def every(x):
+        return True
+
+    def none(x):
+        return False
+
     # (name, which source is scored, folds: (VoxAngeles training, EmoDB training, scored))
     splits = [
-        ("in-sample", "vox", [(everything[0], everything[0], everything[1])]),
-        ("halves", "vox", [(lambda ln, h=h: ln["half"] != h, everything[0], lambda ln, h=h: ln["half"] == h)
+        ("in-sample", "vox", [(every, every, every)]),
+        ("halves", "vox", [(lambda ln, h=h: ln["half"] != h, every, lambda ln, h=h: ln["half"] == h)
                            for h in "AB"]),
-        ("1 family out", "vox", [(lambda ln, f=f: ln["family"] != f, everything[0], lambda ln, f=f: ln["family"] == f)
+        ("1 family out", "vox", [(lambda ln, f=f: ln["family"] != f, every, lambda ln, f=f: ln["family"] == f)
                                  for f in families]),
-        ("in-sample", "emodb", [(everything[0], everything[0], everything[1])]),
-        ("1 actor out", "emodb", [(everything[0], lambda t, a=a: t["actor"] != a, lambda t, a=a: t["actor"] == a)
+        ("in-sample", "emodb", [(every, every, every)]),
+        ("1 actor out", "emodb", [(every, lambda t, a=a: t["actor"] != a, lambda t, a=a: t["actor"] == a)
                                   for a in actors]),
-        ("without EmoDB", "emodb", [(everything[0], nothing[0], everything[1])]),
+        ("without EmoDB", "emodb", [(every, none, every)]),
     ]
     print(f"{'':24s} {'without':>16s} {'English model':>16s}   "
           + "   ".join(f"other a={a:g}".rjust(16) for a in ALPHAS))
