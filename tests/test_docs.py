@@ -89,7 +89,7 @@ SLOW = {
 #: same, but for 10 s to minutes: run with LIPSYNC_SLOW_TESTS=1).
 BENCH = {
     "alignment_accuracy": "skips", "arousal": "skips", "batch_throughput": "skips", "boundary_model": "skips",
-    "boundary_model_ipa": "skips",
+    "boundary_model_ipa": "skips", "check_cost": "skips",
     "coverage": "skips",
     "crossval": "skips", "crossval_languages": "skips", "crossval_offscript": "skips", "false_alarms": "skips",
     "emodb": "skips",
