@@ -3,8 +3,8 @@ pass the checks of a take against its script (and the aligner's second
 looks) make, clip by clip, on real recordings (../shared/data; skips when
 absent).
 
-Every English clip with a transcript (bench/common.py ``transcript_clips``)
-and TIMIT's 61 sentences is analysed in-process with its right transcript,
+Every English clip with a transcript and TIMIT's 61 sentences (the clips
+``bench/speed.py --against`` times, bench/common.py ``timed_clips``) is analysed in-process with its right transcript,
 the models loaded (a first run each), best of 3; the time of each pass is
 summed over the run that was fastest:
 
@@ -42,7 +42,7 @@ import time
 from collections import defaultdict
 from contextlib import contextmanager
 
-from common import DATA, need_data, transcript_clips
+from common import need_data, timed_clips
 from addon.engine import audio as audio_mod
 from addon.engine.alignment import tempo, transcript, verify
 from addon.engine.pipeline import analyze
@@ -130,11 +130,8 @@ def timed(spent: dict[str, float], found: dict[str, int]):
 
 
 def clips(only: list[str] | None) -> list[tuple[str, str, str]]:
-    out = [(name, str(path), text) for name, path, text in transcript_clips()]
-    for wav in sorted((DATA / "timit_nltk").glob("*/*.wav")):
-        text = " ".join(wav.with_suffix(".txt").read_text().split()[2:])
-        out.append((f"{wav.parent.name}/{wav.stem}", str(wav), text))
-    return [c for c in out if not only or any(o in c[0] for o in only)]
+    return [(name, str(path), text) for name, path, text in timed_clips()
+            if not only or any(o in name for o in only)]
 
 
 def measure(path: str, text: str) -> tuple[float, float, dict[str, float], dict[str, int]]:

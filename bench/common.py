@@ -87,6 +87,15 @@ def transcript_clips() -> list[tuple[str, Path, str]]:
     return clips
 
 
+def timed_clips() -> list[tuple[str, Path, str]]:
+    """The clips the speed comparisons time: every clip with a transcript
+    (:func:`transcript_clips`) and TIMIT's 61 sentences (``speaker/sentence``)."""
+    clips = transcript_clips()
+    for wav in sorted((DATA / "timit_nltk").glob("*/*.wav")):
+        clips.append((f"{wav.parent.name}/{wav.stem}", wav, " ".join(wav.with_suffix(".txt").read_text().split()[2:])))
+    return clips
+
+
 def reference_phones() -> list[tuple[str, Path, str, Path, str]]:
     """Clips with reference phone tiers: (name, audio, transcript, TextGrid, phone set)."""
     d = need_data()

@@ -169,9 +169,7 @@ def against(other: str, only: list[str] | None = None) -> None:
     from pathlib import Path
 
     tmp = Path(tempfile.mkdtemp())
-    clips = [(name, path, text) for name, path, text in __import__("common").transcript_clips()]
-    for wav in sorted((DATA / "timit_nltk").glob("*/*.wav")):
-        clips.append((f"{wav.parent.name}/{wav.stem}", wav, " ".join(wav.with_suffix(".txt").read_text().split()[2:])))
+    clips = __import__("common").timed_clips()
     if only:
         clips = [c for c in clips if any(o in c[0] for o in only)]
     timers = {}
